@@ -1,0 +1,478 @@
+"""Benchmark of the two LQ laws (stm_law, kkt_law) against CasADi+IPOPT and a scipy sparse solve.
+
+Case: Mei, Ma & Yang (2010): chief a = 9500 km, f0 = 0, x0 = [10 km, 10 km, 0, 4, -23.485, 0]
+(LVLH m, m/s), xf = 0, 3 revolutions, LGL N = 64 (65 nodes), float64, 3D (in-plane and
+out-of-plane) everywhere.
+
+Measured in one run:
+  1. per law, one problem (e = 0.3): cold compile time (jax.jit(law).lower(...).compile(), the
+     in-memory caches cleared first, the persistent compilation cache off) and steady-state time
+     per solve (jitted, block_until_ready, median of repeats);
+  2. per law, 1024 problems (e = linspace(0, 0.5, 1024)) through jax.jit(jax.vmap(law)):
+     compile time, time per batch, problems/s, how many members return status 0;
+  3. peer A: the same collocated QP (Mei 2010 eq. 12-16) in CasADi, solved by IPOPT one problem
+     at a time; the solver is built once with the e-dependent data as parameters;
+  4. peer B: the KKT system of the same QP assembled as a scipy.sparse matrix and solved by
+     scipy.sparse.linalg.spsolve (SuperLU), per problem;
+  5. throughput ratios, and a breakdown of the STM law's time.
+
+The peers get the node true anomalies, rho_i, (fT - f0)/2 and the Tschauner-Hempel boundary
+states from jaxlpm.solvers.lq._setup (computed once, outside their timings), so all three solve
+exactly the same discrete problem; their costs are compared with kkt_law's cost_true_anomaly.
+
+Run:  PYTHONPATH=. python experiments/benchmarks/bench_lq_laws.py [--out results/bench_lq_laws.json]
+"""
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_enable_compilation_cache", False)   # cold compiles, measured
+
+import casadi as ca  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+import scipy  # noqa: E402
+import scipy.sparse as sp  # noqa: E402
+import scipy.sparse.linalg as spla  # noqa: E402
+
+from jaxlpm.collocation import lgl  # noqa: E402
+from jaxlpm.orbits import KeplerOrbit  # noqa: E402
+from jaxlpm.problems import EnergyOptimalTransfer  # noqa: E402
+from jaxlpm.solvers import kkt_law, solve, stm_law  # noqa: E402
+from jaxlpm.solvers.lq import _setup  # noqa: E402
+
+A_CHIEF = 9500e3
+E_CASE = 0.3
+X0_LVLH = np.array([10000.0, 10000.0, 0.0, 4.0, -23.485, 0.0])
+XF_LVLH = np.zeros(6)
+REVOLUTIONS = 3.0
+N_POINTS = 65                         # LGL N = 64
+BATCH = 1024
+E_MAX = 0.5
+GOALS = {"stm": 2000.0, "kkt": 10.0}  # batched problems/s over IPOPT problems/s
+LAWS = {"stm": stm_law, "kkt": kkt_law}
+
+
+# ----------------------------------------------------------------------------------- helpers
+def make_problem(e):
+    orbit = KeplerOrbit(a=jnp.float64(A_CHIEF), e=jnp.float64(e))
+    return EnergyOptimalTransfer.from_revolutions(
+        orbit, jnp.asarray(X0_LVLH), jnp.asarray(XF_LVLH), REVOLUTIONS)
+
+
+def make_batch(es):
+    """One problem pytree whose every leaf has a leading batch axis; orbit.e = es."""
+    base = make_problem(E_CASE)
+    b = len(es)
+    batched = jax.tree.map(
+        lambda leaf: jnp.broadcast_to(jnp.asarray(leaf, jnp.float64),
+                                      (b,) + jnp.shape(leaf)), base)
+    return batched.replace(orbit=batched.orbit.replace(e=jnp.asarray(es, jnp.float64)))
+
+
+def timed(fn, *, min_repeats=5, max_repeats=200, budget_s=2.0):
+    """Median (and min, count) wall time of fn() over repeats; fn must block on its result."""
+    times = []
+    start = time.perf_counter()
+    while len(times) < max_repeats:
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+        if len(times) >= min_repeats and time.perf_counter() - start > budget_s:
+            break
+    return dict(median_s=statistics.median(times), min_s=min(times), repeats=len(times))
+
+
+def cold_compile(fn, *args, repeats=3):
+    """Lower + compile times of jax.jit(fn) with the in-memory caches cleared (median)."""
+    lows, comps = [], []
+    compiled = None
+    for _ in range(repeats):
+        jax.clear_caches()
+        t0 = time.perf_counter()
+        lowered = jax.jit(fn).lower(*args)
+        t1 = time.perf_counter()
+        compiled = lowered.compile()
+        t2 = time.perf_counter()
+        lows.append(t1 - t0)
+        comps.append(t2 - t1)
+    tot = [a + b for a, b in zip(lows, comps)]
+    return compiled, dict(lower_s=statistics.median(lows), compile_s=statistics.median(comps),
+                          total_s=statistics.median(tot), repeats=repeats)
+
+
+def block(tree):
+    return jax.block_until_ready(tree)
+
+
+def th_data(problems, grid):
+    """Per-member data of the TH-frame QP from jaxlpm's own prelude (batched, host arrays)."""
+    def one(p):
+        s = _setup(p, grid)
+        return dict(f=s["f"], rho=s["rho"], half=s["half"], X0=s["X0"], XT=s["XT"], k2=s["k2"],
+                    e=s["e"])
+    out = jax.jit(jax.vmap(one))(problems)
+    return {k: np.asarray(v) for k, v in out.items()}
+
+
+# ------------------------------------------------------------------------- the QP (eq. 12-16)
+# Unknowns per axis a (x, y, z): nodal positions Q_a, velocities V_a (TH, m and m/rad) and
+# controls U_a (m). Collocated Tschauner-Hempel equations, Mei 2010 eq. (12), multiplied by
+# h = (fT - f0)/2 as in the paper:
+#   D Q_a - h V_a = 0                                   (a = x, y, z)
+#   D V_x - h (3/rho Q_x + 2 V_y + U_x / rho^3) = 0
+#   D V_y - h (-2 V_x + U_y / rho^3) = 0
+#   D V_z - h (-Q_z + U_z / rho^3) = 0
+#   X(f_0) = X0, X(f_N) = XT (TH states)
+# Cost (Mei 2010 eq. 5 by LGL quadrature): 1/2 sum_i h w_i / rho_i^2 |U_i|^2  (TH units, m^2);
+# times k^8 ... precisely: jaxlpm's cost_true_anomaly = k2^4 * this cost (u = k2^2 U).
+
+def build_ipopt(D, w):
+    """CasADi NLP of the QP with parameters p = [rho (n), h, X0 (6), XT (6)]; built once."""
+    n = D.shape[0]
+    Q = ca.SX.sym("Q", n, 3)
+    V = ca.SX.sym("V", n, 3)
+    U = ca.SX.sym("U", n, 3)
+    rho = ca.SX.sym("rho", n)
+    h = ca.SX.sym("h")
+    X0 = ca.SX.sym("X0", 6)
+    XT = ca.SX.sym("XT", 6)
+    Dm = ca.DM(D)
+    b = 1.0 / rho**3
+    acc = ca.horzcat(3.0 / rho * Q[:, 0] + 2.0 * V[:, 1] + b * U[:, 0],
+                     -2.0 * V[:, 0] + b * U[:, 1],
+                     -Q[:, 2] + b * U[:, 2])
+    defects = [ca.vec(ca.mtimes(Dm, Q) - h * V), ca.vec(ca.mtimes(Dm, V) - h * acc)]
+    X = ca.horzcat(Q, V)
+    bc = [X[0, :].T - X0, X[n - 1, :].T - XT]
+    c = h * ca.DM(w) / rho**2
+    cost = 0.5 * ca.sum1(c * ca.sum2(U**2))
+    x = ca.vertcat(ca.vec(Q), ca.vec(V), ca.vec(U))
+    p = ca.vertcat(rho, h, X0, XT)
+    nlp = dict(x=x, p=p, f=cost, g=ca.vertcat(*defects, *bc))
+    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
+    solver = ca.nlpsol("lq_qp", "ipopt", nlp, opts)
+    return solver, x.numel(), nlp["g"].numel()
+
+
+def kkt_static(D):
+    """The e-independent parts of the sparse KKT matrix (built once)."""
+    n = D.shape[0]
+    return dict(n=n, D=sp.csr_matrix(D), I=sp.identity(n, format="csr"),
+                bc=sp.csr_matrix((np.ones(2), ([0, 1], [0, n - 1])), shape=(2, n)))
+
+
+def assemble_kkt(st, w, rho, h, X0, XT):
+    """KKT matrix [[H, A^T], [A, 0]] and right-hand side of the QP, variables ordered
+    [Q_x, Q_y, Q_z, V_x, V_y, V_z, U_x, U_y, U_z] (n each), constraints as in build_ipopt."""
+    n, D, I, bcm = st["n"], st["D"], st["I"], st["bc"]
+    hI = h * I
+    hb = sp.diags(h / rho**3)
+    Z = None
+    A = sp.bmat([
+        # position-rate defects
+        [D, Z, Z, -hI, Z, Z, Z, Z, Z],
+        [Z, D, Z, Z, -hI, Z, Z, Z, Z],
+        [Z, Z, D, Z, Z, -hI, Z, Z, Z],
+        # velocity-rate defects
+        [sp.diags(-3.0 * h / rho), Z, Z, D, -2.0 * hI, Z, -hb, Z, Z],
+        [Z, Z, Z, 2.0 * hI, D, Z, Z, -hb, Z],
+        [Z, Z, hI, Z, Z, D, Z, Z, -hb],
+        # boundary states: rows (X_k(f_0), X_k(f_N)) per state component k
+        [bcm, Z, Z, Z, Z, Z, Z, Z, Z],
+        [Z, bcm, Z, Z, Z, Z, Z, Z, Z],
+        [Z, Z, bcm, Z, Z, Z, Z, Z, Z],
+        [Z, Z, Z, bcm, Z, Z, Z, Z, Z],
+        [Z, Z, Z, Z, bcm, Z, Z, Z, Z],
+        [Z, Z, Z, Z, Z, bcm, Z, Z, Z],
+    ], format="csr")
+    c = h * w / rho**2
+    H = sp.diags(np.concatenate([np.zeros(6 * n), c, c, c]))
+    K = sp.bmat([[H, A.T], [A, None]], format="csc")
+    rhs = np.zeros(K.shape[0])
+    rhs[9 * n + 6 * n:] = np.stack([X0, XT], axis=1).ravel()
+    return K, rhs
+
+
+def th_cost(U, w, rho, h):
+    """1/2 sum_i h w_i |U_i|^2 / rho_i^2 for U (n, 3)."""
+    return 0.5 * h * float(np.sum(w * np.sum(U**2, axis=1) / rho**2))
+
+
+# ----------------------------------------------------------------------------------- machine
+def machine_info():
+    model = "unknown"
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return dict(cpu_model=model, nproc=len(os.sched_getaffinity(0)), cpu_count=os.cpu_count(),
+                platform=platform.platform(), python=platform.python_version(),
+                jax=jax.__version__, jax_backend=jax.default_backend(),
+                casadi=ca.__version__, numpy=np.__version__, scipy=scipy.__version__,
+                xla_flags=os.environ.get("XLA_FLAGS", ""),
+                loadavg_start=os.getloadavg())
+
+
+# -------------------------------------------------------------------------------------- main
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", default="results/bench_lq_laws.json")
+    ap.add_argument("--n-peer", type=int, default=32,
+                    help="problems (eccentricities) solved one at a time by each peer")
+    ap.add_argument("--batch", type=int, default=BATCH)
+    args = ap.parse_args(argv)
+    t_start = time.perf_counter()
+    res = dict(case=dict(a_m=A_CHIEF, e_single=E_CASE, x0_lvlh=X0_LVLH.tolist(),
+                         xf_lvlh=XF_LVLH.tolist(), revolutions=REVOLUTIONS,
+                         lgl_points=N_POINTS, N=N_POINTS - 1, batch=args.batch,
+                         e_batch=[0.0, E_MAX], dimension="3D (in-plane + out-of-plane)"),
+               machine=machine_info())
+    grid = lgl(N_POINTS)
+    prob = make_problem(E_CASE)
+
+    # 1. single problem --------------------------------------------------------------------
+    single = {}
+    for name, law in LAWS.items():
+        compiled, comp = cold_compile(law, prob, grid)
+        sol = block(compiled(prob, grid))
+        jitted = jax.jit(law)
+        block(jitted(prob, grid))
+        run = timed(lambda: block(jitted(prob, grid)), min_repeats=20, budget_s=2.0)
+        run_aot = timed(lambda: block(compiled(prob, grid)), min_repeats=20, budget_s=1.0)
+        single[name] = dict(compile=comp, solve=run, solve_aot_executable=run_aot,
+                            status=int(sol.status), cost=float(sol.cost),
+                            cost_true_anomaly=float(sol.cost_true_anomaly))
+        print(f"[single {name}] compile {comp['total_s']:.3f} s, solve "
+              f"{run['median_s'] * 1e3:.3f} ms (median of {run['repeats']})", flush=True)
+    # solve() is the public entry point: the jitted law plus host-side validation
+    block(solve(prob, grid, "kkt"))
+    single["kkt"]["solve_public_api"] = timed(lambda: block(solve(prob, grid, "kkt")),
+                                              min_repeats=10, budget_s=1.0)
+    block(solve(prob, grid, "stm"))
+    single["stm"]["solve_public_api"] = timed(lambda: block(solve(prob, grid, "stm")),
+                                              min_repeats=10, budget_s=1.0)
+    res["single"] = single
+
+    # 2. batched ----------------------------------------------------------------------------
+    es = np.linspace(0.0, E_MAX, args.batch)
+    probs = make_batch(es)
+    batched, batch_sols = {}, {}
+    for name, law in LAWS.items():
+        vlaw = jax.vmap(law, in_axes=(0, None))
+        compiled, comp = cold_compile(vlaw, probs, grid, repeats=2)
+        sols = block(compiled(probs, grid))
+        jitted = jax.jit(vlaw)
+        block(jitted(probs, grid))
+        run = timed(lambda: block(jitted(probs, grid)), min_repeats=5, budget_s=6.0)
+        status = np.asarray(sols.status)
+        batched[name] = dict(compile=comp, batch=run,
+                             per_problem_s=run["median_s"] / args.batch,
+                             problems_per_s=args.batch / run["median_s"],
+                             converged=int(np.sum(status == 0)), members=int(status.size),
+                             status_counts={int(k): int(v) for k, v in
+                                            zip(*np.unique(status, return_counts=True))})
+        batch_sols[name] = sols
+        print(f"[batch {name}] compile {comp['total_s']:.3f} s, batch "
+              f"{run['median_s'] * 1e3:.1f} ms, {batched[name]['problems_per_s']:.0f} problems/s,"
+              f" status 0: {batched[name]['converged']}/{status.size}", flush=True)
+    cst = np.asarray(batch_sols["stm"].cost_true_anomaly)
+    ckk = np.asarray(batch_sols["kkt"].cost_true_anomaly)
+    batched["stm_vs_kkt_cost_max_rel_diff"] = float(np.max(np.abs(cst - ckk) / np.abs(ckk)))
+    # batched members equal single solves (spot check at the member nearest e = 0.3)
+    i03 = int(np.argmin(np.abs(es - E_CASE)))
+    s03 = block(jax.jit(kkt_law)(make_problem(float(es[i03])), grid))
+    batched["kkt_batch_vs_single_rel_diff"] = float(
+        abs(ckk[i03] - float(s03.cost_true_anomaly)) / abs(float(s03.cost_true_anomaly)))
+    res["batched"] = batched
+
+    # shared TH data for the peers (from jaxlpm's prelude; not timed)
+    data = th_data(probs, grid)
+    D = np.asarray(grid.D)
+    w = np.asarray(grid.weights)
+    n = D.shape[0]
+    idx = np.unique(np.linspace(0, args.batch - 1, args.n_peer).round().astype(int))
+    kkt_X = np.asarray(batch_sols["kkt"].node_states_th)
+    kkt_U_si = np.asarray(batch_sols["kkt"].node_controls)
+
+    def rel_state_err(i, Q, V):
+        X = np.concatenate([Q, V], axis=1)
+        return float(np.max(np.abs(X - kkt_X[i])) / np.max(np.abs(kkt_X[i])))
+
+    # 3. peer A: CasADi + IPOPT -----------------------------------------------------------------
+    t0 = time.perf_counter()
+    solver, nvar, ncon = build_ipopt(D, w)
+    build_s = time.perf_counter() - t0
+    x_init = np.zeros(nvar)
+    ip_times, ip_internal, ip_iters, ip_rel, ip_state, ip_status = [], [], [], [], [], []
+    for rep, i in enumerate(idx):
+        p = np.concatenate([data["rho"][i], [data["half"][i]], data["X0"][i], data["XT"][i]])
+        t0 = time.perf_counter()
+        out = solver(x0=x_init, p=p, lbg=0.0, ubg=0.0)
+        dt = time.perf_counter() - t0
+        st = solver.stats()
+        z = np.asarray(out["x"]).ravel()
+        Q, V, U = (z[k * 3 * n:(k + 1) * 3 * n].reshape(3, n).T for k in range(3))
+        cost = th_cost(U, w, data["rho"][i], data["half"][i]) * data["k2"][i] ** 4
+        ip_times.append(dt)
+        ip_internal.append(st.get("t_wall_total", float("nan")))
+        ip_iters.append(int(st.get("iter_count", -1)))
+        ip_status.append(st.get("return_status", "?"))
+        ip_rel.append(abs(cost - ckk[i]) / abs(ckk[i]))
+        ip_state.append(rel_state_err(i, Q, V))
+    ipopt = dict(build_s=build_s, variables=nvar, constraints=ncon, problems=len(idx),
+                 e_values=es[idx].tolist(),
+                 per_problem=dict(median_s=statistics.median(ip_times), min_s=min(ip_times)),
+                 ipopt_internal_t_wall_total_median_s=statistics.median(ip_internal),
+                 iterations=sorted(set(ip_iters)), return_status=sorted(set(ip_status)),
+                 cost_rel_diff_vs_kkt_max=max(ip_rel),
+                 cost_rel_diff_vs_kkt_median=statistics.median(ip_rel),
+                 state_rel_diff_vs_kkt_max=max(ip_state),
+                 options="defaults (tol 1e-8) + print_level 0, print_time False, sb yes")
+    ipopt["problems_per_s"] = 1.0 / ipopt["per_problem"]["median_s"]
+    res["ipopt"] = ipopt
+    print(f"[ipopt] {ipopt['per_problem']['median_s'] * 1e3:.2f} ms/problem "
+          f"({len(idx)} problems, iterations {ipopt['iterations']}, "
+          f"{ipopt['return_status']}), cost rel diff max {max(ip_rel):.1e}", flush=True)
+
+    # 4. peer B: scipy.sparse direct solve of the KKT system ----------------------------------------
+    st = kkt_static(D)
+    sp_asm, sp_sol, sp_tot, sp_rel, sp_state = [], [], [], [], []
+    for i in idx:
+        t0 = time.perf_counter()
+        K, rhs = assemble_kkt(st, w, data["rho"][i], data["half"][i], data["X0"][i],
+                              data["XT"][i])
+        t1 = time.perf_counter()
+        sol = spla.spsolve(K, rhs)
+        t2 = time.perf_counter()
+        Q, V, U = (sol[k * 3 * n:(k + 1) * 3 * n].reshape(3, n).T for k in range(3))
+        cost = th_cost(U, w, data["rho"][i], data["half"][i]) * data["k2"][i] ** 4
+        sp_asm.append(t1 - t0)
+        sp_sol.append(t2 - t1)
+        sp_tot.append(t2 - t0)
+        sp_rel.append(abs(cost - ckk[i]) / abs(ckk[i]))
+        sp_state.append(rel_state_err(i, Q, V))
+    # control check too: u = k2^2 U (SI) against the KKT law's node_controls at the last member
+    u_si = data["k2"][idx[-1]] ** 2 * U
+    spsolve = dict(problems=len(idx), kkt_size=int(K.shape[0]), kkt_nnz=int(K.nnz),
+                   assembly=dict(median_s=statistics.median(sp_asm)),
+                   solve=dict(median_s=statistics.median(sp_sol), min_s=min(sp_sol)),
+                   per_problem=dict(median_s=statistics.median(sp_tot), min_s=min(sp_tot)),
+                   cost_rel_diff_vs_kkt_max=max(sp_rel),
+                   cost_rel_diff_vs_kkt_median=statistics.median(sp_rel),
+                   state_rel_diff_vs_kkt_max=max(sp_state),
+                   control_rel_diff_vs_kkt_last=float(
+                       np.max(np.abs(u_si - kkt_U_si[idx[-1]])) / np.max(np.abs(u_si))),
+                   solver="scipy.sparse.linalg.spsolve (SuperLU, COLAMD), CSC")
+    spsolve["problems_per_s"] = 1.0 / spsolve["per_problem"]["median_s"]
+    spsolve["problems_per_s_solve_only"] = 1.0 / spsolve["solve"]["median_s"]
+    res["scipy_sparse"] = spsolve
+    print(f"[scipy] assembly {spsolve['assembly']['median_s'] * 1e3:.2f} ms + spsolve "
+          f"{spsolve['solve']['median_s'] * 1e3:.2f} ms per problem, cost rel diff max "
+          f"{max(sp_rel):.1e}", flush=True)
+
+    # 5. STM law breakdown (where its time goes; vmapped over the batch) ------------------------
+    res["stm_profile"] = stm_profile(probs, grid, args.batch)
+
+    # ratios ----------------------------------------------------------------------------------
+    ratios = {}
+    for name in LAWS:
+        pps = batched[name]["problems_per_s"]
+        r = pps / ipopt["problems_per_s"]
+        ratios[name] = dict(
+            batched_vs_ipopt=r, goal=GOALS[name], goal_met=bool(r >= GOALS[name]),
+            batched_vs_scipy_assembly_and_solve=pps / spsolve["problems_per_s"],
+            batched_vs_scipy_solve_only=pps / spsolve["problems_per_s_solve_only"],
+            single_vs_ipopt=ipopt["per_problem"]["median_s"] / single[name]["solve"]["median_s"])
+    res["ratios"] = ratios
+    res["machine"]["loadavg_end"] = os.getloadavg()
+    res["total_runtime_s"] = time.perf_counter() - t_start
+    res["command"] = " ".join([os.path.basename(sys.executable)] + sys.argv)
+
+    print_table(res)
+    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+    with open(args.out, "w") as fh:
+        json.dump(res, fh, indent=2, default=float)
+    print(f"\nwrote {args.out} (total {res['total_runtime_s']:.0f} s)")
+    return res
+
+
+def stm_profile(probs, grid, batch):
+    """Batched time of the STM law's stages, each jitted on its own (cumulative prefixes)."""
+    from jaxlpm.dynamics import ya_fundamental, ya_fundamental_inverse
+
+    def prelude(p):
+        s = _setup(p, grid)
+        return s["f"], s["t"], s["rho"], s["X0"], s["XT"]
+
+    def fundamentals(p):
+        s = _setup(p, grid)
+        F0, F1 = jax.vmap(ya_fundamental, in_axes=(0, None))(s["f"], s["e"])
+        Finv = jax.vmap(ya_fundamental_inverse, in_axes=(0, None))(s["f"], s["e"])
+        return F0, F1, Finv
+
+    stages = {"_setup (Kepler solve at the nodes, frames)": prelude,
+              "_setup + YA fundamental matrices at the nodes": fundamentals,
+              "full stm_law (Gramian, solve, states, _finish)": stm_law}
+    out = {}
+    for label, fn in stages.items():
+        f = jax.jit(jax.vmap(fn)) if fn is not stm_law else jax.jit(
+            jax.vmap(fn, in_axes=(0, None)))
+        args = (probs,) if fn is not stm_law else (probs, grid)
+        block(f(*args))
+        t = timed(lambda: block(f(*args)), min_repeats=5, budget_s=2.0)
+        out[label] = dict(batch_median_s=t["median_s"], per_problem_us=t["median_s"] / batch * 1e6)
+    return out
+
+
+def print_table(res):
+    s, b, ip, sc, r = (res["single"], res["batched"], res["ipopt"], res["scipy_sparse"],
+                       res["ratios"])
+    bn = res["case"]["batch"]
+    print("\n=== LQ laws, LGL N = 64 (65 nodes), 3D, float64, "
+          f"{res['machine']['nproc']} cores ({res['machine']['cpu_model']}) ===")
+    print(f"{'solver':<34}{'compile (s)':>12}{'time':>22}{'problems/s':>14}")
+    for name in LAWS:
+        print(f"{name + '_law, single (e=0.3)':<34}{s[name]['compile']['total_s']:>12.3f}"
+              f"{s[name]['solve']['median_s'] * 1e3:>17.3f} ms  "
+              f"{1.0 / s[name]['solve']['median_s']:>14.0f}")
+    for name in LAWS:
+        print(f"{name + f'_law, vmap x{bn}':<34}{b[name]['compile']['total_s']:>12.3f}"
+              f"{b[name]['batch']['median_s'] * 1e3:>11.1f} ms/batch  "
+              f"{b[name]['problems_per_s']:>14.0f}   status 0: {b[name]['converged']}/{bn}")
+    print(f"{'CasADi+IPOPT, one at a time':<34}{ip['build_s']:>12.3f}"
+          f"{ip['per_problem']['median_s'] * 1e3:>17.3f} ms  {ip['problems_per_s']:>14.0f}"
+          f"   (build time in compile column)")
+    print(f"{'scipy spsolve, assembly + solve':<34}{'-':>12}"
+          f"{sc['per_problem']['median_s'] * 1e3:>17.3f} ms  {sc['problems_per_s']:>14.0f}")
+    print(f"{'scipy spsolve, solve only':<34}{'-':>12}"
+          f"{sc['solve']['median_s'] * 1e3:>17.3f} ms  {sc['problems_per_s_solve_only']:>14.0f}")
+    print("\nagreement with kkt_law cost_true_anomaly (max relative difference): "
+          f"IPOPT {ip['cost_rel_diff_vs_kkt_max']:.1e}, scipy {sc['cost_rel_diff_vs_kkt_max']:.1e},"
+          f" stm_law {b['stm_vs_kkt_cost_max_rel_diff']:.1e}")
+    print("\nratio (batched problems/s) / (peer problems/s):")
+    for name in LAWS:
+        x = r[name]
+        print(f"  {name}: vs IPOPT {x['batched_vs_ipopt']:.1f}x (goal >= {x['goal']:.0f}x: "
+              f"{'MET' if x['goal_met'] else 'NOT MET'}), vs scipy assembly+solve "
+              f"{x['batched_vs_scipy_assembly_and_solve']:.2f}x, vs scipy solve only "
+              f"{x['batched_vs_scipy_solve_only']:.2f}x")
+    print(f"\nSTM law breakdown (vmap x{bn}, per problem):")
+    for label, v in res["stm_profile"].items():
+        print(f"  {label:<50}{v['per_problem_us']:>9.1f} us")
+
+
+if __name__ == "__main__":
+    main()

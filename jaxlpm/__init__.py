@@ -1,0 +1,20 @@
+"""jaxlpm: pseudospectral optimal spacecraft relative-orbit transfers in JAX.
+
+Frames and units at the interface: LVLH relative states [x, y, z, vx, vy, vz] in m and m/s
+(x radial outward, y along-track, z orbit normal), controls in m/s^2, times in s, angles in
+rad. float64 only: enable it with jax.config.update("jax_enable_x64", True).
+"""
+
+from . import constants
+from .collocation import Grid, lg, lgl, lgr, make_grid
+from .orbits import KeplerOrbit
+from .problems import EnergyOptimalTransfer
+from .solvers import Solution, solve
+from .status import Status, describe
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "EnergyOptimalTransfer", "Grid", "KeplerOrbit", "Solution", "Status", "constants",
+    "describe", "lg", "lgl", "lgr", "make_grid", "solve", "__version__",
+]

@@ -1,0 +1,31 @@
+"""Input checks at the Python boundary (ValueError) and their traced counterparts (status)."""
+
+import jax
+import numpy as np
+
+
+def require_x64() -> None:
+    """Raise ValueError unless JAX runs in float64 (jaxlpm refuses float32)."""
+    if not jax.config.jax_enable_x64:
+        raise ValueError(
+            "jaxlpm needs float64: call jax.config.update('jax_enable_x64', True) "
+            "(or set JAX_ENABLE_X64=1) before creating arrays"
+        )
+
+
+def is_concrete(*xs) -> bool:
+    """True when every leaf is a concrete (non-traced) value that can be checked on the host."""
+    return not any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(xs))
+
+
+def check_finite(name: str, value) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {arr!r}")
+    return arr
+
+
+def check_shape(name: str, value, shape: tuple) -> None:
+    got = np.shape(value)
+    if got != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {got}")

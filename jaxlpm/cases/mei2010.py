@@ -1,0 +1,198 @@
+"""Mei, Ma & Yang (2010): LGL pseudospectral energy-optimal relative transfer, elliptic chief.
+
+The paper's case (its §4): chief a = 9500 km, e = 0.3, i = raan = 30 deg, argp = 10 deg,
+f0 = 0; chaser at LVLH [x, y] = [10000, 10000] m, [vx, vy] = [4, -23.485] m/s (x radial out,
+y along-track; z = 0), to the origin at rest after 3 chief periods; N = 64 (65 LGL nodes).
+
+Its quirks live here: its "N" is the polynomial degree (lgl(N + 1)); its cost is eq. (8),
+k^2 * 1/2 int |u|^2 dt in m^2/s^4 (printed as m^2/s); its published numbers below.
+"""
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..collocation import lgl
+from ..orbits import KeplerOrbit
+from ..problems import EnergyOptimalTransfer
+from ..solvers import LAWS
+from ..verify import control_interpolant, propagate_linear, propagate_nonlinear, terminal_error
+
+NAME = "mei2010"
+TITLE = "Mei, Ma & Yang 2010: LGL energy-optimal relative transfer on an elliptic orbit"
+N_HEADLINE = 64
+N_CONVERGENCE = (8, 16, 32, 48, 64, 96, 128)
+
+PUBLISHED = {
+    "source": "Mei, Ma, Yang, J. Harbin Inst. Technol. 42(3), 2010, §4 and Figs 1-6",
+    "N": 64,
+    "J_stm": 1.9e-6,
+    "J_kkt": 2.95e-7,
+    "J_units_printed": "m^2/s",
+    "J_units_actual": "m^2/s^4 (k^2 * 1/2 int |u|^2 dt, k^2 = mu^2/h^3)",
+    "terminal_error_linear_kkt_bound": [5.0, 0.01],
+    "terminal_error_linear_stm": "hundreds of m",
+    "terminal_error_nonlinear": "hundreds of m (both laws)",
+}
+
+
+def problem() -> EnergyOptimalTransfer:
+    """The paper's case as an `EnergyOptimalTransfer` (SI units, our LVLH frame)."""
+    deg = np.pi / 180.0
+    orbit = KeplerOrbit(a=jnp.asarray(9500e3), e=jnp.asarray(0.3), i=jnp.asarray(30 * deg),
+                        raan=jnp.asarray(30 * deg), argp=jnp.asarray(10 * deg),
+                        f0=jnp.asarray(0.0))
+    x0 = jnp.array([10000.0, 10000.0, 0.0, 4.0, -23.485, 0.0])
+    return EnergyOptimalTransfer.from_revolutions(orbit, x0, jnp.zeros(6), 3.0)
+
+
+def _compile_all(prob, log):
+    """AOT-compile every (law, N) and both propagators, two at a time (one per core)."""
+    jobs = {(law, N): (jax.jit(fn), (prob, lgl(N + 1)))
+            for law, fn in LAWS.items() for N in N_CONVERGENCE}
+    probe = jax.eval_shape(LAWS["kkt"], prob, lgl(N_HEADLINE + 1))
+    ci = jax.eval_shape(control_interpolant, probe)
+    for name, fn in (("linear", propagate_linear), ("nonlinear", propagate_nonlinear)):
+        jobs[name] = (jax.jit(fn), (prob.orbit, prob.x0, prob.duration, ci))
+    t = time.perf_counter()
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        futures = {k: pool.submit(lambda f, a: f.lower(*a).compile(), f, a)
+                   for k, (f, a) in jobs.items()}
+        compiled = {k: fut.result() for k, fut in futures.items()}
+    log(f"compiled {len(compiled)} functions (2 laws x {len(N_CONVERGENCE)} grids, "
+        f"2 propagators) in {time.perf_counter() - t:.1f} s")
+    return compiled
+
+
+def _pair(x):
+    return [float(v) for v in np.asarray(x)]
+
+
+def compute(log=print):
+    """Solve, verify and collect everything the reproduction reports."""
+    prob = problem()
+    compiled = _compile_all(prob, log)
+    t = time.perf_counter()
+    sols = {(law, N): compiled[(law, N)](prob, lgl(N + 1))
+            for law in LAWS for N in N_CONVERGENCE}
+    bad = [k for k, s in sols.items() if int(s.status) != 0]
+    if bad:
+        raise RuntimeError(f"solves did not succeed: {[(k, sols[k].message) for k in bad]}")
+    log(f"solved both laws at N = {list(N_CONVERGENCE)} in {time.perf_counter() - t:.2f} s")
+
+    t = time.perf_counter()
+    lin = {}
+    for key, s in sols.items():
+        ts, xs, ok = compiled["linear"](prob.orbit, prob.x0, prob.duration, control_interpolant(s))
+        if not bool(ok):
+            raise RuntimeError(f"linear propagation failed for {key}")
+        lin[key] = (np.asarray(ts), np.asarray(xs))
+    nonlin = {}
+    for law in LAWS:
+        s = sols[(law, N_HEADLINE)]
+        ts, xs, ok = compiled["nonlinear"](prob.orbit, prob.x0, prob.duration,
+                                           control_interpolant(s))
+        if not bool(ok):
+            raise RuntimeError(f"nonlinear propagation failed for {law}")
+        nonlin[law] = (np.asarray(ts), np.asarray(xs))
+    log(f"propagated {len(lin)} linear and {len(nonlin)} nonlinear flights (Dopri8, "
+        f"rtol 1e-12) in {time.perf_counter() - t:.1f} s")
+
+    err = lambda xs: _pair(terminal_error(xs, prob.xf))
+    head = {law: sols[(law, N_HEADLINE)] for law in LAWS}
+    computed = {
+        "N": N_HEADLINE,
+        "J_stm": float(head["stm"].cost_true_anomaly),
+        "J_kkt": float(head["kkt"].cost_true_anomaly),
+        "J_units": "m^2/s^4 (Mei 2010 eq. 8: k^2 * 1/2 int |u|^2 dt; the paper prints m^2/s)",
+        "J_time_kkt": float(head["kkt"].cost),
+        "J_time_stm": float(head["stm"].cost),
+        "J_time_units": "m^2/s^3 (1/2 int |u|^2 dt)",
+        "terminal_error_linear": {law: err(lin[(law, N_HEADLINE)][1]) for law in LAWS},
+        "terminal_error_nonlinear": {law: err(nonlin[law][1]) for law in LAWS},
+        "terminal_error_units": ["m", "m/s"],
+        "convergence": [
+            {"N": N,
+             "J_stm": float(sols[("stm", N)].cost_true_anomaly),
+             "J_kkt": float(sols[("kkt", N)].cost_true_anomaly),
+             "terminal_error_linear_stm": err(lin[("stm", N)][1]),
+             "terminal_error_linear_kkt": err(lin[("kkt", N)][1])}
+            for N in N_CONVERGENCE],
+    }
+    return prob, head, lin, nonlin, computed
+
+
+NOTES = [
+    "J_kkt agrees with the published SEQ value 2.95e-7 m^2/s^4 (the paper's 'm^2/s' label is "
+    "wrong: eq. 8 is k^2 * 1/2 int |u|^2 dt).",
+    "The published J_STM = 1.9e-6 and the STM law's 'hundreds of metres' on the linear model "
+    "are not reproduced: both laws solve the same continuous problem and converge to the same "
+    "cost (table above); at N = 64 the STM law's interpolated control misses by well under a "
+    "millimetre on the linear model. An independent time-domain Gramian optimum and the "
+    "hypotheses tested for the paper's number are in docs/mei2010.md.",
+    "On the nonlinear two-body model both laws miss by hundreds of metres, as the paper says: "
+    "the linearisation, not the law, is the limit (its conclusion 3).",
+]
+
+
+def report(computed, log=print):
+    """Print the paper's numbers beside ours."""
+    c, p = computed, PUBLISHED
+    log(f"\n{TITLE}\nN = {c['N']} (65 LGL nodes); J in m^2/s^4 (paper eq. 8)\n")
+    log(f"{'quantity':<44}{'published':>16}{'jaxlpm':>22}")
+    rows = [
+        ("J, STM law (eq. 10)", f"{p['J_stm']:.3g}", f"{c['J_stm']:.10e}"),
+        ("J, KKT/SEQ law (eq. 16)", f"{p['J_kkt']:.3g}", f"{c['J_kkt']:.10e}"),
+        ("1/2 int |u|^2 dt, KKT (m^2/s^3)", "-", f"{c['J_time_kkt']:.10e}"),
+    ]
+    for law, pub in (("kkt", "<= 5 m, 0.01 m/s"), ("stm", "hundreds of m")):
+        e = c["terminal_error_linear"][law]
+        rows.append((f"terminal error, linear model, {law.upper()}", pub,
+                     f"{e[0]:.2e} m, {e[1]:.1e} m/s"))
+    for law in ("stm", "kkt"):
+        e = c["terminal_error_nonlinear"][law]
+        rows.append((f"terminal error, nonlinear model, {law.upper()}", "hundreds of m",
+                     f"{e[0]:.1f} m, {e[1]:.3f} m/s"))
+    for name, pub, ours in rows:
+        log(f"{name:<44}{pub:>16}{ours:>22}")
+    log("\nconvergence in N (linear-model terminal position error after propagation):")
+    log(f"{'N':>5}{'J_stm':>20}{'J_kkt':>20}{'err_stm (m)':>14}{'err_kkt (m)':>14}")
+    for r in c["convergence"]:
+        log(f"{r['N']:>5}{r['J_stm']:>20.10e}{r['J_kkt']:>20.10e}"
+            f"{r['terminal_error_linear_stm'][0]:>14.3e}{r['terminal_error_linear_kkt'][0]:>14.3e}")
+    log("")
+    for note in NOTES:
+        log(f"- {note}")
+
+
+def figures(head, lin, nonlin, computed, out_dir):
+    """Figures like the paper's Figs 1-6 plus a convergence plot; returns the file paths."""
+    from .plots import plot_control, plot_convergence, plot_relative_motion
+
+    paths = []
+    for law, (fc, fl, fn) in {"stm": (1, 2, 3), "kkt": (4, 5, 6)}.items():
+        s = head[law]
+        paths.append(plot_control(s, out_dir / f"fig{fc}_control_{law}.png",
+                                  f"Fig. {fc}: control acceleration ({law.upper()} law, N = 64)"))
+        paths.append(plot_relative_motion(
+            *lin[(law, N_HEADLINE)], out_dir / f"fig{fl}_linear_{law}.png",
+            f"Fig. {fl}: relative motion, linear model ({law.upper()} law)"))
+        paths.append(plot_relative_motion(
+            *nonlin[law], out_dir / f"fig{fn}_nonlinear_{law}.png",
+            f"Fig. {fn}: relative motion, nonlinear two-body model ({law.upper()} law)"))
+    paths.append(plot_convergence(computed["convergence"], out_dir / "convergence.png"))
+    return paths
+
+
+def reproduce(out_dir, log=print):
+    """Run the case: compute, print, draw. Returns the JSON-ready result dict."""
+    _, head, lin, nonlin, computed = compute(log)
+    report(computed, log)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for path in figures(head, lin, nonlin, computed, out_dir):
+        log(f"wrote {path}")
+    return {"schema_version": 1, "case": NAME, "published": PUBLISHED, "computed": computed,
+            "notes": NOTES}

@@ -1,0 +1,68 @@
+"""Figures shared by the case reproductions (matplotlib, Agg backend, PNG)."""
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..orbits import time_from_true_anomaly  # noqa: E402
+
+
+def _save(fig, path):
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_control(solution, path, title):
+    """LVLH control acceleration components and magnitude vs time: interpolant and nodes."""
+    f = jnp.linspace(solution.node_f[0], solution.node_f[-1], 1500)
+    u = np.asarray(jax.vmap(solution.controls_at_true_anomaly)(f))
+    t = np.asarray(time_from_true_anomaly(solution.problem.orbit, f))
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, name in enumerate("xyz"):
+        ax.plot(t, u[:, k], label=f"u_{name}")
+    ax.plot(t, np.linalg.norm(u, axis=1), "k", lw=1.5, label="|u|")
+    ax.plot(solution.node_times, np.linalg.norm(solution.node_controls, axis=1), "k.", ms=4,
+            label="|u| at LGL nodes")
+    ax.set(xlabel="t (s)", ylabel="acceleration (m/s²)", title=title)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def plot_relative_motion(ts, xs, path, title):
+    """Relative position and velocity components (LVLH) vs time."""
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    for k, name in enumerate("xyz"):
+        a1.plot(ts, xs[:, k], label=name)
+        a2.plot(ts, xs[:, 3 + k], label=f"v{name}")
+    a1.set(ylabel="position (m)", title=title)
+    a2.set(xlabel="t (s)", ylabel="velocity (m/s)")
+    for a in (a1, a2):
+        a.legend(fontsize=8)
+        a.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def plot_convergence(rows, path):
+    """Cost and linear-model terminal error against N for both laws."""
+    N = [r["N"] for r in rows]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+    ref = rows[-1]["J_kkt"]
+    for law in ("stm", "kkt"):
+        a1.semilogy(N, [abs(r[f"J_{law}"] - ref) / ref + 1e-17 for r in rows], "o-",
+                    label=law.upper())
+        a2.semilogy(N, [r[f"terminal_error_linear_{law}"][0] for r in rows], "o-",
+                    label=law.upper())
+    a1.set(xlabel="N", ylabel=f"|J - J(N={N[-1]})| / J", title="cost convergence")
+    a2.set(xlabel="N", ylabel="terminal position error (m)",
+           title="linear model, interpolated control")
+    for a in (a1, a2):
+        a.legend()
+        a.grid(alpha=0.3, which="both")
+    return _save(fig, path)

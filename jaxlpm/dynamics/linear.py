@@ -1,0 +1,89 @@
+"""Linear relative dynamics in the LVLH frame (x radial, y along-track, z normal).
+
+State x = [x, y, z, vx, vy, vz] (m, m/s); control u = [ux, uy, uz] (m/s^2, LVLH axes).
+Each function is for one state; callers vmap.
+"""
+
+import jax.numpy as jnp
+
+
+def hcw_matrix(n):
+    """Hill-Clohessy-Wiltshire system matrix (circular chief, mean motion n in rad/s):
+    x_dd = 3 n^2 x + 2 n y_d,  y_dd = -2 n x_d,  z_dd = -n^2 z."""
+    z = 0.0 * n
+    return jnp.array([
+        [z, z, z, 1.0 + z, z, z],
+        [z, z, z, z, 1.0 + z, z],
+        [z, z, z, z, z, 1.0 + z],
+        [3 * n**2, z, z, z, 2 * n, z],
+        [z, z, z, -2 * n, z, z],
+        [z, z, -n**2, z, z, z],
+    ])
+
+
+def hcw_rhs(t, x, u, n):
+    """HCW equations dx/dt (m/s, m/s^2)."""
+    del t
+    return hcw_matrix(n) @ x + jnp.concatenate([jnp.zeros(3), u])
+
+
+def elliptic_lvlh_matrix(r, w, w_dot, mu):
+    """Linearised relative motion about an elliptic chief, in time (Yamanaka-Ankersen eq. 2):
+
+    x_dd = 2 w y_d + w_dot y + w^2 x + 2 mu x / r^3
+    y_dd = -2 w x_d - w_dot x + w^2 y - mu y / r^3
+    z_dd = -mu z / r^3
+    with the chief's radius r (m), orbital rate w = f_dot (rad/s) and its rate w_dot (rad/s^2).
+    """
+    g = mu / r**3
+    z = 0.0 * g
+    return jnp.array([
+        [z, z, z, 1.0 + z, z, z],
+        [z, z, z, z, 1.0 + z, z],
+        [z, z, z, z, z, 1.0 + z],
+        [w**2 + 2 * g, w_dot, z, z, 2 * w, z],
+        [-w_dot, w**2 - g, z, -2 * w, z, z],
+        [z, z, -g, z, z, z],
+    ])
+
+
+def chief_polar_rates(f, e, k2):
+    """Chief's radius factor and rates at true anomaly f: returns (rho, w, w_dot) with
+    rho = 1 + e cos f, w = f_dot = k^2 rho^2, w_dot = -2 k^4 rho^3 e sin f."""
+    rho = 1.0 + e * jnp.cos(f)
+    return rho, k2 * rho**2, -2.0 * k2**2 * rho**3 * e * jnp.sin(f)
+
+
+def elliptic_lvlh_rhs(f, x, u, e, k2, p, mu):
+    """Time derivative of the LVLH state (linear, elliptic chief) given the chief's true anomaly
+    f at that time (the caller integrates f_dot = k^2 rho^2 beside the state, or solves Kepler)."""
+    rho, w, w_dot = chief_polar_rates(f, e, k2)
+    A = elliptic_lvlh_matrix(p / rho, w, w_dot, mu)
+    return A @ x + jnp.concatenate([jnp.zeros(3), u])
+
+
+def tschauner_hempel_matrix(f, e):
+    """Tschauner-Hempel system matrix in true anomaly for [x~, y~, z~, x~', y~', z~']:
+    x~'' = 3 x~ / rho + 2 y~',  y~'' = -2 x~',  z~'' = -z~   (rho = 1 + e cos f; Mei 2010 eq. 1)."""
+    rho = 1.0 + e * jnp.cos(f)
+    z = 0.0 * rho
+    return jnp.array([
+        [z, z, z, 1.0 + z, z, z],
+        [z, z, z, z, 1.0 + z, z],
+        [z, z, z, z, z, 1.0 + z],
+        [3.0 / rho, z, z, z, 2.0 + z, z],
+        [z, z, z, -2.0 + z, z, z],
+        [z, z, -1.0 + z, z, z, z],
+    ])
+
+
+def tschauner_hempel_input_gain(f, e, k2):
+    """Gain b(f) = 1 / (k^4 rho^3) (s^2) multiplying u (m/s^2) in x~'' (Mei 2010 eq. 11)."""
+    rho = 1.0 + e * jnp.cos(f)
+    return 1.0 / (k2**2 * rho**3)
+
+
+def tschauner_hempel_rhs(f, x_th, u, e, k2):
+    """d/df of the Tschauner-Hempel state with physical control u (m/s^2, LVLH axes)."""
+    acc = tschauner_hempel_input_gain(f, e, k2) * u
+    return tschauner_hempel_matrix(f, e) @ x_th + jnp.concatenate([jnp.zeros(3), acc])

@@ -1,0 +1,5 @@
+"""Optimal-control problem definitions."""
+
+from .transfer import EnergyOptimalTransfer, check_problem
+
+__all__ = ["EnergyOptimalTransfer", "check_problem"]

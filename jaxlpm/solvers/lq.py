@@ -1,0 +1,244 @@
+"""The two linear-quadratic laws of Mei, Ma & Yang (2010) on LGL nodes, in 3D.
+
+Both solve the energy-optimal transfer of `EnergyOptimalTransfer` on the Tschauner-Hempel
+model, with the chief's true anomaly f as independent variable (Mei 2010 eq. 5, 11):
+
+    minimise  1/2 int_{f0}^{fT} |U|^2 / rho^2 df,   U = u / k^4 (m), rho = 1 + e cos f
+    subject to  X' = A(f) X + B(f) U,  B = [0; I] / rho^3,  X(f0), X(fT) given (TH states).
+
+Internally time is nondimensional (true anomaly, rad) and lengths stay in metres: the
+problem is linear and homogeneous in length and the TH variables x~, x~', U are all O(|x|).
+Costs are returned in SI: 1/2 int |u|^2 dt (m^2/s^3) and Mei's k^2-scaled form (m^2/s^4).
+
+stm_law: Mei 2010 §3.1, eq. (9)-(10): the terminal state as the Yamanaka-Ankersen STM plus the
+    LGL quadrature of Phi(fT, f) B U; a 4x4 (in-plane) and 2x2 (out-of-plane) Gramian.
+kkt_law: Mei 2010 §3.2, eq. (12)-(16): the state equations collocated with the LGL
+    differentiation matrix; the equality-constrained QP (the paper's "SEQ"). Solved exactly,
+    but not by a dense LU of eq. (16): the position-rate equations give V = D Q and the
+    velocity-rate equations give U as an affine function of the nodal positions Q, so the QP
+    is an equality-constrained least-squares problem in the interior positions (2 boundary
+    velocity constraints per axis), solved by null-space QR (no normal equations: their
+    condition number would be the square of an O(N^4) one). Its solution is the solution of
+    eq. (16); the multipliers gamma of eq. (16) are then recovered from its stationarity.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..dynamics import ya_fundamental, ya_fundamental_inverse
+from ..linalg import RCOND_SINGULAR, spd_rcond
+from ..orbits import lvlh_to_th, th_to_lvlh, time_from_true_anomaly, true_anomaly_from_time
+from ..status import Status
+from .solution import Solution
+
+_IP = np.array([0, 1, 3, 4])   # in-plane components of the TH state
+_OP = np.array([2, 5])         # out-of-plane components
+
+
+def _setup(problem, grid):
+    """Shared prelude: validity, node true anomalies and times, TH boundary states."""
+    valid = problem.validity()
+    prob = problem.sanitized(valid)
+    o = prob.orbit
+    e, k2 = o.e, o.k2
+    f0 = o.f0 + 0.0 * e
+    fT = true_anomaly_from_time(o, prob.duration)
+    half = 0.5 * (fT - f0)
+    f = f0 + (grid.points + 1.0) * half
+    t = time_from_true_anomaly(o, f)
+    X0 = lvlh_to_th(prob.x0, f0, e, k2)
+    XT = lvlh_to_th(prob.xf, fT, e, k2)
+    rho = 1.0 + e * jnp.cos(f)
+    return dict(valid=valid, prob=prob, e=e, k2=k2, f0=f0, fT=fT, half=half, f=f, t=t,
+                X0=X0, XT=XT, rho=rho)
+
+
+def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, stat_res, rcond):
+    """Assemble the Solution: SI outputs, costs, status; zero everything for invalid input."""
+    e, k2, rho, half = s["e"], s["k2"], s["rho"], s["half"]
+    u = k2**2 * U_nodes                                          # m/s^2
+    cost_f = 0.5 * half * jnp.sum(grid.weights * jnp.sum(u**2, axis=1) / rho**2)
+    states = jax.vmap(th_to_lvlh, in_axes=(0, 0, None, None))(X_nodes, s["f"], e, k2)
+    outputs = dict(
+        node_f=s["f"], node_times=s["t"], node_states=states, node_states_th=X_nodes,
+        node_controls=u, cost=cost_f / k2, cost_true_anomaly=cost_f, costates=costates,
+        multipliers=multipliers, constraint_residual=con_res, stationarity_residual=stat_res,
+        rcond=rcond)
+    finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(v)) for v in outputs.values()]))
+    valid = s["valid"]
+    status = jnp.where(
+        ~valid, Status.INVALID_INPUT,
+        jnp.where(~(rcond >= RCOND_SINGULAR), Status.SINGULAR,
+                  jnp.where(~finite, Status.NONFINITE, Status.SUCCESS)))
+    keep = valid & finite
+    outputs = {k: jnp.where(keep, v, 0.0) for k, v in outputs.items()}
+    return Solution(problem=s["prob"], grid=grid, status=status.astype(jnp.int32),
+                    method=method, **outputs)
+
+
+def _mask_matrix(thrust_axes):
+    return np.diag(np.asarray(thrust_axes, dtype=np.float64))
+
+
+def stm_law(problem, grid) -> Solution:
+    """Mei 2010 eq. (10) in 3D: U_i = rho_i^2 Psi_i^T G^-1 (X_T - Phi(fT, f0) X_0),
+    Psi_i = Phi(fT, f_i) B(f_i), G = (fT - f0)/2 sum_i w_i rho_i^2 Psi_i Psi_i^T.
+
+    Nodal states by variation of constants with the LGL integration matrix S:
+    X(f_i) = Phi(f_i, f0) [X_0 + (fT - f0)/2 sum_j S_ij Phi(f0, f_j) B_j U_j].
+    All STMs come from one evaluation of YA's F0, F1, F^-1 per node (Phi = (F0 + J F1) F^-1).
+    """
+    s = _setup(problem, grid)
+    e, k2, f, t, rho, half = s["e"], s["k2"], s["f"], s["t"], s["rho"], s["half"]
+    F0, F1 = jax.vmap(ya_fundamental, in_axes=(0, None))(f, e)         # (n, 6, 6)
+    Finv = jax.vmap(ya_fundamental_inverse, in_axes=(0, None))(f, e)
+    J = k2 * (t - t[0])                                                  # J_i from the start
+    B = jnp.asarray(_mask_matrix(problem.thrust_axes))
+    Binv = Finv[:, :, 3:] @ B / rho[:, None, None] ** 3                  # F^-1(f_i) B(f_i)
+    FT = F0[-1] + (J[-1] - J)[:, None, None] * F1[-1]                    # F(fT; J_T - J_i)
+    Psi = FT @ Binv                                                      # (n, 6, 3)
+    Gram = half * jnp.einsum("i,iab,icb->ac", grid.weights * rho**2, Psi, Psi)
+    d = s["XT"] - (F0[-1] + J[-1] * F1[-1]) @ Finv[0] @ s["X0"]
+
+    nu = jnp.zeros(6, dtype=d.dtype)
+    rconds = []
+    for idx in (_IP, _OP):
+        Gb = Gram[np.ix_(idx, idx)]
+        rconds.append(spd_rcond(Gb))
+        nu = nu.at[idx].set(-jnp.linalg.solve(Gb, d[idx]))
+    rcond = jnp.minimum(*rconds)
+    U = -(rho**2)[:, None] * jnp.einsum("iab,a->ib", Psi, nu)                # (n, 3)
+
+    # nodal states: Phi(f0, f_j) = (F0(f0) - J_j F1(f0)) F^-1(f_j), Phi(f_i, f0) likewise
+    F_back = F0[0] - J[:, None, None] * F1[0]
+    integrand = jnp.einsum("iab,ib->ia", F_back @ Binv, U)
+    inner = s["X0"] + half * grid.integration @ integrand
+    X = jnp.einsum("iab,ib->ia", (F0 + J[:, None, None] * F1) @ Finv[0], inner)
+
+    costates = jnp.einsum("iba,b->ia", FT @ Finv, nu)
+    con_res = jnp.max(jnp.abs(X[-1] - s["XT"]))
+    stat_res = jnp.max(jnp.abs(Gram @ nu + d)) / jnp.max(jnp.abs(d))
+    return _finish("stm", s, grid, X, U, costates, nu, con_res, stat_res, rcond)
+
+
+def _second_order_blocks(e, f):
+    """(K_i, G) of the TH equations written as Q'' = K(f) Q + G Q' + b U per block:
+    in-plane Q = (x~, y~): K = diag(3/rho, 0), G = [[0, 2], [-2, 0]]; out-of-plane Q = z~:
+    K = -1, G = 0 (Mei 2010 eq. 1)."""
+    rho = 1.0 + e * jnp.cos(f)
+    zero = jnp.zeros_like(rho)
+    K_ip = jnp.stack([jnp.stack([3.0 / rho, zero], -1), jnp.stack([zero, zero], -1)], -2)
+    K_op = -jnp.ones((f.shape[0], 1, 1), dtype=rho.dtype)
+    return (K_ip, jnp.array([[0.0, 2.0], [-2.0, 0.0]])), (K_op, jnp.zeros((1, 1)))
+
+
+def _qr_rcond(r):
+    d = jnp.abs(jnp.diagonal(r))
+    top = jnp.max(d)
+    return jnp.where(top > 0, jnp.min(d) / jnp.where(top > 0, top, 1.0), 0.0)
+
+
+def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active):
+    """Collocated second-order block (Mei 2010 eq. 12-16 for one block of m axes).
+
+    Unknowns: interior nodal positions z. V = Dh Q, U = (Dh V - K Q - G V)/b (affine in z).
+    Constraints: (Dh Q)_0 = v0, (Dh Q)_N = vT, and U_c = 0 for a removed axis c.
+    Cost: 1/2 sum_i c_i |U_i|^2 over the existing axes.
+    Returns (Q, V, U, gamma, constraint residual, stationarity residual, rcond).
+    """
+    n, m = K.shape[0], K.shape[1]
+    eye_m, eye_n = jnp.eye(m), jnp.eye(n)
+    D2 = Dh @ Dh
+    # T[i, c, j, a] = dU_{i,c} / dQ_{j,a}
+    T = (D2[:, None, :, None] * eye_m[None, :, None, :]
+         - Dh[:, None, :, None] * G[None, :, None, :]
+         - eye_n[:, None, :, None] * K[:, :, None, :])
+    T = T / b[:, None, None, None]
+    P = T[:, :, 1:-1, :].reshape(n, m, (n - 2) * m)                # U = P z + q
+    q = T[:, :, 0, :] @ q0 + T[:, :, -1, :] @ qT                   # (n, m)
+
+    ends = jnp.array([0, n - 1])
+    Gv = (Dh[ends][:, 1:-1][:, None, :, None] * eye_m[None, :, None, :]).reshape(2 * m, -1)
+    gv = (jnp.stack([v0, vT]) - Dh[ends][:, :1] * q0 - Dh[ends][:, -1:] * qT).reshape(-1)
+    act = np.asarray(active)
+    Gc = jnp.concatenate([Gv] + [P[:, ax, :] for ax in np.flatnonzero(~act)])
+    gc = jnp.concatenate([gv] + [-q[:, ax] for ax in np.flatnonzero(~act)])
+
+    # equality-constrained least squares by null-space QR
+    r = Gc.shape[0]
+    Qg, Rg = jnp.linalg.qr(Gc.T, mode="complete")
+    Rg1 = Rg[:r, :r]
+    z_p = Qg[:, :r] @ jax.scipy.linalg.solve_triangular(Rg1.T, gc, lower=True)
+    Z = Qg[:, r:]
+    sw = jnp.sqrt(c)[:, None]
+    Pa, qa = P[:, act, :], q[:, act]
+    M = (sw[:, :, None] * (Pa @ Z)).reshape(-1, Z.shape[1])
+    rhs = -(sw * (jnp.einsum("icj,j->ic", Pa, z_p) + qa)).reshape(-1)
+    Qm, Rm = jnp.linalg.qr(M)
+    y = jax.scipy.linalg.solve_triangular(Rm, Qm.T @ rhs, lower=False)
+    z = z_p + Z @ y
+    rcond = jnp.minimum(_qr_rcond(Rg1), _qr_rcond(Rm))
+
+    Q = jnp.concatenate([q0[None], z.reshape(n - 2, m), qT[None]])
+    U = jnp.einsum("icj,j->ic", P, z) + q
+    V = (Dh @ Q).at[0].set(v0).at[-1].set(vT)
+    con_res = jnp.max(jnp.abs(jnp.concatenate([
+        (Dh @ Q - V).ravel(), (Dh @ V - jnp.einsum("ica,ia->ic", K, Q) - V @ G.T
+                              - b[:, None] * U).ravel()])))
+
+    # multipliers of eq. (16): dL/dU = 0 gives gamma_V on existing axes; the interior-velocity
+    # stationarity gives gamma_Q inside; the interior-position stationarity (overdetermined,
+    # consistent at the optimum) gives gamma_Q at the ends and gamma_V on removed axes.
+    gV_act = jnp.where(act[None, :], c[:, None] * U / b[:, None], 0.0)
+    n_free = int((~act).sum()) * n + 2 * m
+
+    def unpack(w):
+        gV = gV_act
+        for k, ax in enumerate(np.flatnonzero(~act)):
+            gV = gV.at[:, ax].set(w[k * n:(k + 1) * n])
+        gQ_ends = w[n_free - 2 * m:].reshape(2, m)
+        gQ = Dh.T @ gV - gV @ G
+        gQ = gQ.at[0].set(gQ_ends[0]).at[-1].set(gQ_ends[1])
+        return gQ, gV
+
+    def position_stationarity(w):
+        gQ, gV = unpack(w)
+        return (Dh.T @ gQ - jnp.einsum("iac,ia->ic", K, gV))[1:-1].ravel()
+
+    w0 = jnp.zeros(n_free, dtype=z.dtype)
+    A_ls = jax.jacfwd(position_stationarity)(w0)
+    w = jnp.linalg.lstsq(A_ls, -position_stationarity(w0))[0]
+    gQ, gV = unpack(w)
+    stat_res = jnp.max(jnp.abs(position_stationarity(w)))
+    return Q, V, U, jnp.concatenate([gQ, gV], axis=1), con_res, stat_res, rcond
+
+
+def kkt_law(problem, grid) -> Solution:
+    """Mei 2010 eq. (12)-(16) in 3D (the paper's "SEQ" law); see the module docstring."""
+    s = _setup(problem, grid)
+    e, rho, half, f = s["e"], s["rho"], s["half"], s["f"]
+    Dh = grid.D / half
+    b = 1.0 / rho**3
+    c = half * grid.weights / rho**2
+    X0, XT = s["X0"], s["XT"]
+    axes = np.asarray(problem.thrust_axes)
+    (K_ip, G_ip), (K_op, G_op) = _second_order_blocks(e, f)
+    n = f.shape[0]
+    X = jnp.zeros((n, 6), dtype=X0.dtype)
+    U = jnp.zeros((n, 3), dtype=X0.dtype)
+    gamma = jnp.zeros((n, 6), dtype=X0.dtype)
+    con, stat, rc = [], [], []
+    for pos, K, G, ax in (([0, 1], K_ip, G_ip, axes[:2]), ([2], K_op, G_op, axes[2:])):
+        pos = np.array(pos)
+        vel = pos + 3
+        Q, V, Ub, gam, cr, sr, rcb = _kkt_block(
+            Dh, K, G, b, c, X0[pos], XT[pos], X0[vel], XT[vel], tuple(bool(a) for a in ax))
+        X = X.at[:, pos].set(Q).at[:, vel].set(V)
+        U = U.at[:, pos].set(Ub)
+        gamma = gamma.at[:, pos].set(gam[:, :len(pos)]).at[:, vel].set(gam[:, len(pos):])
+        con.append(cr), stat.append(sr), rc.append(rcb)
+    # Fahroo-Ross costate map: gamma_i = -(fT - f0)/2 w_i p(f_i) for defects written X' - AX - BU.
+    costates = -gamma / (half * grid.weights)[:, None]
+    return _finish("kkt", s, grid, X, U, costates, gamma, jnp.maximum(*con),
+                   jnp.maximum(*stat), jnp.minimum(*rc))

@@ -1,0 +1,80 @@
+"""The Solution pytree returned by every law: nodal values, cost, multipliers, health."""
+
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+
+from ..orbits import th_to_lvlh, true_anomaly_from_time
+from ..status import Status
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class Solution:
+    """Optimal transfer at the collocation nodes, evaluable at any time by interpolation.
+
+    node_f        chief true anomaly at the nodes (rad, continuous)
+    node_times    time since the start of the transfer (s)
+    node_states   LVLH states [x, y, z, vx, vy, vz] (m, m/s; x radial, y along-track, z normal)
+    node_states_th Tschauner-Hempel states [x~, y~, z~, x~', y~', z~'] (m, m/rad)
+    node_controls LVLH control acceleration u (m/s^2)
+    cost          1/2 int |u|^2 dt (m^2/s^3), by the grid's quadrature
+    cost_true_anomaly  1/2 int |u|^2/(1 + e cos f)^2 df = k^2 * cost (m^2/s^4; Mei 2010 eq. 5/8)
+    costates      costate estimates p(f_i) of the TH formulation with cost
+                  1/2 int |U|^2/rho^2 df, U = u/k^4 (m): U = -rho^2 B^T p
+    multipliers   the law's own multipliers: STM law: terminal-constraint multiplier nu (6,)
+                  (p(f_T) = nu); KKT law: multipliers gamma of the collocation equations (n, 6)
+                  (Mei 2010 eq. 15-16 scaling)
+    constraint_residual   max |defect| of the law's constraints (m, TH units)
+    stationarity_residual max |dL/d(variables)| of the law's optimality conditions
+    rcond         reciprocal condition number estimate of the system solved
+    status        `Status` code (int32)
+    """
+
+    problem: object
+    grid: object
+    node_f: jax.Array
+    node_times: jax.Array
+    node_states: jax.Array
+    node_states_th: jax.Array
+    node_controls: jax.Array
+    cost: jax.Array
+    cost_true_anomaly: jax.Array
+    costates: jax.Array
+    multipliers: jax.Array
+    constraint_residual: jax.Array
+    stationarity_residual: jax.Array
+    rcond: jax.Array
+    status: jax.Array
+    method: str = field(default="", metadata=dict(static=True))
+
+    @property
+    def message(self) -> str:
+        """The status in words (concrete, unbatched solutions)."""
+        return Status(int(self.status)).message
+
+    def _tau(self, f):
+        f0, fT = self.node_f[0], self.node_f[-1]
+        return 2.0 * (f - f0) / (fT - f0) - 1.0
+
+    def controls_at_true_anomaly(self, f):
+        """u (m/s^2, LVLH) at chief true anomaly f: barycentric Lagrange over the nodes in f."""
+        return self.grid.interpolate_control(self.node_controls, self._tau(f))
+
+    def states_at_true_anomaly(self, f):
+        """LVLH state at chief true anomaly f, interpolating the TH state polynomial."""
+        o = self.problem.orbit
+        x_th = self.grid.interpolate_state(self.node_states_th, self._tau(f))
+        return th_to_lvlh(x_th, f, o.e, o.k2)
+
+    def _f_of_t(self, t):
+        return true_anomaly_from_time(self.problem.orbit, t)
+
+    def controls(self, t):
+        """u (m/s^2, LVLH) at time t (s since the transfer's start); vmap for many times."""
+        return self.controls_at_true_anomaly(self._f_of_t(t))
+
+    def states(self, t):
+        """LVLH state (m, m/s) at time t (s since the transfer's start)."""
+        return self.states_at_true_anomaly(self._f_of_t(t))

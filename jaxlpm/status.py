@@ -1,0 +1,37 @@
+"""Solver status codes: every solver returns one of these instead of raising inside jit."""
+
+import enum
+
+
+class Status(enum.IntEnum):
+    """Outcome of a solve. Stored in solutions as an int32 array (batched runs: one per member)."""
+
+    SUCCESS = 0
+    SINGULAR = 1
+    INVALID_INPUT = 2
+    NONFINITE = 3
+    MAX_ITERATIONS = 4
+
+    @property
+    def message(self) -> str:
+        return _MESSAGES[self]
+
+
+_MESSAGES = {
+    Status.SUCCESS: "converged: constraints and optimality conditions satisfied",
+    Status.SINGULAR: (
+        "singular system: the Gramian or KKT matrix is rank deficient (zero-length transfer, "
+        "a removed control channel, or boundary states the controls cannot reach)"
+    ),
+    Status.INVALID_INPUT: (
+        "invalid input under jit/vmap: e outside [0, 1), non-positive duration or semi-major "
+        "axis, or non-finite states (outputs are zeroed)"
+    ),
+    Status.NONFINITE: "the solve produced non-finite numbers",
+    Status.MAX_ITERATIONS: "the iteration limit was reached before convergence",
+}
+
+
+def describe(status) -> str:
+    """Readable message for a status code (an int or a 0-d array)."""
+    return Status(int(status)).message
