@@ -169,6 +169,12 @@ def state_to_elements(r, v, mu=MU_EARTH) -> KeplerOrbit:
 
     argp = jnp.where(circular, 0.0, angle(node_dir, evec))
     f = angle(ref, r)
+    return KeplerOrbit(a=a, e=e, i=i, raan=_wrap_2pi(raan), argp=_wrap_2pi(argp),
+                       f0=_wrap_2pi(f), mu=mu)
+
+
+def _wrap_2pi(x):
+    """x mod 2 pi in [0, 2 pi): mod of a tiny negative angle rounds to exactly 2 pi; map it to 0."""
     two_pi = 2.0 * jnp.pi
-    return KeplerOrbit(a=a, e=e, i=i, raan=jnp.mod(raan, two_pi), argp=jnp.mod(argp, two_pi),
-                       f0=jnp.mod(f, two_pi), mu=mu)
+    y = jnp.mod(x, two_pi)
+    return jnp.where(y >= two_pi, 0.0, y)
