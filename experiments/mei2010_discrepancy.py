@@ -27,7 +27,7 @@ Every J below is in the paper's unit (m^2/s^4) unless marked otherwise.
 
 Run (about 1-3 min on 2 CPU cores; the persistent compilation cache in .jax_cache is used, as
 the test-suite does):
-    cd /work/main && PYTHONPATH=. /work/venv/bin/python experiments/mei2010_discrepancy.py
+    python experiments/mei2010_discrepancy.py   # repository root, after pip install ".[test]"
 """
 
 import itertools
@@ -65,6 +65,7 @@ XF = np.zeros(6)
 REVS = 3.0
 PROB = EnergyOptimalTransfer.from_revolutions(ORBIT, jnp.asarray(X0), jnp.asarray(XF), REVS)
 J_STM_PUB, J_SEQ_PUB = 1.9e-6, 2.95e-7
+K_PAPER = float(ORBIT.mu / jnp.sqrt(ORBIT.mu * ORBIT.p) ** 1.5)     # Mei's k = mu / h^(3/2)
 
 E = float(ORBIT.e)
 K2 = float(ORBIT.k2)            # k^2 = mu^2/h^3 = sqrt(mu/p^3), 1/s
@@ -305,7 +306,8 @@ def main():
         for m in ("stm", "kkt"):
             sols[(N, m)] = solve(PROB, lgl(N + 1), m)
     errs = fly([control_interpolant(sols[k]) for k in sols])
-    print(f"{'N':>4} {'law':>4} {'J (m^2/s^4)':>20} {'J/J* - 1':>10} {'max|u_i - u*(t_i)|/max|u*|':>27}"
+    print(f"{'N':>4} {'law':>4} {'J (m^2/s^4)':>20} {'J/J* - 1':>10} "
+          f"{'max|u_i - u*(t_i)|/max|u*|':>27}"
           f" {'lin |dr| m':>11} {'lin |dv| m/s':>12} status")
     for (key, s), err in zip(sols.items(), errs):
         us = G.u_star(np.asarray(s.node_times))
@@ -313,8 +315,11 @@ def main():
         print(f"{key[0]:>4} {key[1]:>4} {float(s.cost_true_anomaly):20.12e} "
               f"{float(s.cost_true_anomaly) / J_STAR - 1:10.1e} {du:27.1e} {err[0]:11.3e} "
               f"{err[1]:12.3e} {int(s.status)}")
+    print(f"published J_SEQ = {J_SEQ_PUB:.2e}: J*/J_SEQ - 1 = {J_STAR / J_SEQ_PUB - 1:+.1e}; "
+          f"published J_STM = {J_STM_PUB:.1e}: J*/J_STM = {J_STAR / J_STM_PUB:.4f}")
     s_stm, s_kkt = sols[(64, "stm")], sols[(64, "kkt")]
-    du = np.max(np.abs(s_stm.node_controls - s_kkt.node_controls)) / np.max(np.abs(s_kkt.node_controls))
+    du = (np.max(np.abs(s_stm.node_controls - s_kkt.node_controls))
+          / np.max(np.abs(s_kkt.node_controls)))
     print(f"N = 64: max |u_STM - u_KKT| / max |u| at the nodes = {du:.1e};  1/2 int|u|^2 dt: "
           f"STM {float(s_stm.cost):.10e}, KKT {float(s_kkt.cost):.10e} m^2/s^3")
 
@@ -326,7 +331,8 @@ def main():
                for f, f0 in [(FT, 0.0), (5.0, 1.0), (17.0, 3.3)])
     print(f"printed in-plane STM (with 2c - e) vs library YA STM: max |diff| = {dphi:.1e}")
     r_stm, r_seq = stm_law_np(65), seq_law_np(65)
-    print(f"eq. (10) numpy: J = {r_stm.J:.12e}  (library stm {float(s_stm.cost_true_anomaly):.12e})")
+    print(f"eq. (10) numpy: J = {r_stm.J:.12e}  "
+          f"(library stm {float(s_stm.cost_true_anomaly):.12e})")
     print(f"eq. (16) dense KKT numpy: J = {r_seq.J:.12e}  (library kkt "
           f"{float(s_kkt.cost_true_anomaly):.12e})")
     x0th = to_th(X0, 0.0)
@@ -350,7 +356,8 @@ def main():
         ("(a) t mod P, t(fT) -> 0", stm_law_np(65, tfun=t_mod_P(0.0))),
         ("(a) t mod P, t(fT) -> P", stm_law_np(65, tfun=t_mod_P(PERIOD))),
         ("(a) t via atan(tan(f/2)), in (-P/2, P/2]", stm_law_np(65, tfun=t_atan)),
-        ("(a) J = n (t - t0)  (mean motion for k^2)", stm_law_np(65, tfun=lambda f: t_continuous(f) * N_MEAN / K2)),
+        ("(a) J = n (t - t0)  (mean motion for k^2)",
+         stm_law_np(65, tfun=lambda f: t_continuous(f) * N_MEAN / K2)),
         ("(a) J = k^2 (f - f0)/n  (t from f, circular)", stm_law_np(65, tfun=lambda f: f / N_MEAN)),
         ("(a) J = 0 (no secular term)", stm_law_np(65, tfun=lambda f: 0.0)),
         ("(b) 2c - e' with e' = de/df = 0", stm_law_np(65, eprime=0.0)),
@@ -360,14 +367,15 @@ def main():
         ("(b) printed weights, SEQ dense KKT", seq_law_np(65, w_printed=True)),
         ("(b) printed D and weights, SEQ dense KKT", seq_law_np(65, D_printed=True, w_printed=True)),
         ("(e) x~'0 = x_dot/k^2 (rho dropped)", stm_law_np(65, X0_th=to_th(X0, 0.0, vel_div=K2))),
-        ("(e) x~'0 = x_dot/(k^2 rho^2) (x' for x~')", stm_law_np(65, X0_th=to_th(X0, 0.0, vel_div=K2 * (1 + E)**2))),
+        ("(e) x~'0 = x_dot/(k^2 rho^2) (x' for x~')",
+         stm_law_np(65, X0_th=to_th(X0, 0.0, vel_div=K2 * (1 + E)**2))),
     ]
     few = {N: stm_law_np(N + 1) for N in range(3, 21)}
     interps = [interp_of(r.grid, r.f, r.u) for _, r in rows] + \
               [interp_of(r.grid, r.f, r.u) for r in few.values()]
     errs = fly(interps)
-    print(f"L'_N at the 63 interior nodes (should be 0): |L'_N| from {np.min(np.abs(legendre(64, np.asarray(lgl(65).points))[1][1:-1])):.1e}"
-          f" to {np.max(np.abs(legendre(64, np.asarray(lgl(65).points))[1][1:-1])):.1e}")
+    dl = np.abs(legendre(64, np.asarray(lgl(65).points))[1][1:-1])
+    print(f"L'_N at the 63 interior nodes (should be 0): |L'_N| from {dl.min():.1e} to {dl.max():.1e}")
     print(f"{'variant':<46} {'J (eq.8)':>11} {'J/1.9e-6':>9} {'J own w':>10} {'lin |dr| m':>11} {'|dv| m/s':>9}")
     for (name, r), err in zip(rows, errs):
         print(f"{name:<46} {r.J:11.4e} {r.J / J_STM_PUB:9.3f} {r.J_own:10.2e} {err[0]:11.4e} {err[1]:9.2e}")
@@ -391,6 +399,7 @@ def main():
     rho_n = 1 + E * np.cos(f)
     half = FT / 2
     u2 = np.sum(u**2, 1)
+    usq64 = {m: float(np.sum(np.asarray(sols[(64, m)].node_controls) ** 2)) for m in ("stm", "kkt")}
     J_t = half * np.sum(w * u2 / (K2 * rho_n**2)) / 2          # 1/2 int |u|^2 dt
     defs = [
         ("paper eq. (5)/(8): k^2 * 1/2 int|u|^2 dt", K2 * J_t),
@@ -402,9 +411,10 @@ def main():
         ("eq. (8) without (fT-f0)/2 Jacobian", np.sum(w * u2 / rho_n**2) / 2),
         ("eq. (8) without the 1/2", half * np.sum(w * u2 / rho_n**2)),
         ("1/2 sum_i |u_i|^2 (no quadrature weights, N=128)", 0.5 * np.sum(u2)),
-        ("1/2 sum_i |u_i|^2 at N=64 nodes (KKT N=64)", 0.5 * np.sum(np.asarray(s_kkt.node_controls) ** 2)),
-        ("sum_i |u_i|^2 at N=64 nodes (STM N=64; no 1/2, no w)", np.sum(np.asarray(s_stm.node_controls) ** 2)),
-        ("sum_i |u_i|^2 at N=64 nodes (KKT N=64; no 1/2, no w)", np.sum(np.asarray(s_kkt.node_controls) ** 2)),
+        ("1/2 sum_i |u_i|^2 at N=64 nodes (KKT N=64)", 0.5 * usq64["kkt"]),
+        ("sum_i |u_i|^2 at N=64 nodes (STM N=64; no 1/2, no w)", usq64["stm"]),
+        ("sum_i |u_i|^2 at N=64 nodes (KKT N=64; no 1/2, no w)", usq64["kkt"]),
+        ("k * 1/2 int|u|^2 dt, k = mu/h^1.5 not squared", K_PAPER * J_t),
         ("int |u| dt (delta-v, m/s)", half * np.sum(w * np.sqrt(u2) / (K2 * rho_n**2))),
         ("J in km^2/s^4", K2 * J_t * 1e-6),
         ("TH control units: 1/2 int |U|^2/rho^2 df, U = u/k^4", K2 * J_t / K2**4),
@@ -414,6 +424,13 @@ def main():
     print(f"{'definition':<54} {'value':>12} {'/1.9e-6':>10}")
     for name, val in defs:
         print(f"{name:<54} {val:12.4e} {val / J_STM_PUB:10.3g}")
+    print(f"paper's k = mu/h^(3/2) = {K_PAPER:.6e}: k^2 / sqrt(mu/p^3) - 1 = {K_PAPER**2 / K2 - 1:+.1e}"
+          " (its k^2, k^4, k^8 are ours: eq. 8 is invariant to the choice if used consistently)")
+    print("if 1.9e-6 were the paper's unit, the time-domain cost would be 1.9e-6/k^2 = "
+          f"{J_STM_PUB / K2:.4e} m^2/s^3 (ours {J_t:.4e})")
+    sums = {N: np.sum(stm_law_np(N + 1).u ** 2) for N in range(60, 69)}
+    print("sum_i |u_i|^2 (STM law) vs node count: " +
+          ", ".join(f"N={N}: {v:.4e}" for N, v in sums.items()))
     lo, hi = 1.85e-6 / (K2 * J_t), 1.95e-6 / (K2 * J_t)
     hits = []
     for a, b, c, dd in itertools.product(range(-6, 7), range(-6, 7), (-1, 0, 1), range(-2, 3)):
