@@ -49,18 +49,26 @@ def problem() -> EnergyOptimalTransfer:
     return EnergyOptimalTransfer.from_revolutions(orbit, x0, jnp.zeros(6), 3.0)
 
 
+# The laws run once per grid here and take microseconds, so LLVM's backend optimisation is
+# skipped for them (it is most of their compile time); the propagators' long loops keep it.
+_QUICK = {"xla_backend_optimization_level": 0}
+
+
+def _compile(fn, args, options):
+    return fn.lower(*args).compile(compiler_options=options)
+
+
 def _compile_all(prob, log):
     """AOT-compile every (law, N) and both propagators, two at a time (one per core)."""
-    jobs = {(law, N): (jax.jit(fn), (prob, lgl(N + 1)))
-            for law, fn in LAWS.items() for N in N_CONVERGENCE}
     probe = jax.eval_shape(LAWS["kkt"], prob, lgl(N_HEADLINE + 1))
     ci = jax.eval_shape(control_interpolant, probe)
-    for name, fn in (("linear", propagate_linear), ("nonlinear", propagate_nonlinear)):
-        jobs[name] = (jax.jit(fn), (prob.orbit, prob.x0, prob.duration, ci))
+    jobs = {name: (jax.jit(fn), (prob.orbit, prob.x0, prob.duration, ci), None)   # longest first
+            for name, fn in (("nonlinear", propagate_nonlinear), ("linear", propagate_linear))}
+    jobs.update({(law, N): (jax.jit(fn), (prob, lgl(N + 1)), _QUICK)
+                 for law, fn in LAWS.items() for N in N_CONVERGENCE})
     t = time.perf_counter()
     with ThreadPoolExecutor(max_workers=2) as pool:
-        futures = {k: pool.submit(lambda f, a: f.lower(*a).compile(), f, a)
-                   for k, (f, a) in jobs.items()}
+        futures = {k: pool.submit(_compile, *job) for k, job in jobs.items()}
         compiled = {k: fut.result() for k, fut in futures.items()}
     log(f"compiled {len(compiled)} functions (2 laws x {len(N_CONVERGENCE)} grids, "
         f"2 propagators) in {time.perf_counter() - t:.1f} s")
