@@ -181,7 +181,7 @@ def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active):
     rcond = jnp.minimum(_qr_rcond(Rg1), _qr_rcond(Rm))
 
     Q = jnp.concatenate([q0[None], z.reshape(n - 2, m), qT[None]])
-    U = jnp.einsum("icj,j->ic", P, z) + q
+    U = jnp.where(act[None, :], jnp.einsum("icj,j->ic", P, z) + q, 0.0)   # removed axes: none
     V = (Dh @ Q).at[0].set(v0).at[-1].set(vT)
     con_res = jnp.max(jnp.abs(jnp.concatenate([
         (Dh @ Q - V).ravel(), (Dh @ V - jnp.einsum("ica,ia->ic", K, Q) - V @ G.T
