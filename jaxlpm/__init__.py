@@ -5,12 +5,16 @@ Frames and units at the interface: LVLH relative states [x, y, z, vx, vy, vz] in
 rad. float64 only: enable it with jax.config.update("jax_enable_x64", True).
 """
 
-from . import constants
-from .collocation import Grid, lg, lgl, lgr, make_grid
-from .orbits import KeplerOrbit
-from .problems import EnergyOptimalTransfer
-from .solvers import Solution, solve
-from .status import Status, describe
+from . import _cpu_runtime
+
+_cpu_runtime.apply()
+
+from . import constants  # noqa: E402
+from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
+from .orbits import KeplerOrbit  # noqa: E402
+from .problems import EnergyOptimalTransfer  # noqa: E402
+from .solvers import Solution, solve  # noqa: E402
+from .status import Status, describe  # noqa: E402
 
 __version__ = "0.1.0"
 
