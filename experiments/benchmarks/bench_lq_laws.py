@@ -466,69 +466,28 @@ def main(argv=None):
 
 
 def stm_profile(probs, grid, batch):
-    """Batched time of cumulative prefixes of the STM law (each jitted alone; the later stage
-    minus the earlier one is that step's cost). The prefixes follow jaxlpm.solvers.lq.stm_law
-    step by step; the last one is the law itself."""
-    from jaxlpm.dynamics import ya_fundamental, ya_fundamental_inverse
+    """Batched time of pieces of the STM law, each jitted alone, calling the library's own
+    functions (no copy of the law): the prelude, the YA matrices at the nodes, the law's
+    cost alone (XLA drops the unused nodal states and costates), and the whole law."""
+    from jaxlpm.dynamics import ya_inplane_fundamental, ya_inplane_inverse
 
-    w, S = grid.weights, grid.integration
-
-    def fundamentals(p):
+    def matrices(p):
         s = _setup(p, grid)
-        F0, F1 = jax.vmap(ya_fundamental, in_axes=(0, None))(s["f"], s["e"])
-        Finv = jax.vmap(ya_fundamental_inverse, in_axes=(0, None))(s["f"], s["e"])
-        return s, F0, F1, Finv
-
-    def gramian(p):
-        s, F0, F1, Finv = fundamentals(p)
-        J = s["k2"] * (s["t"] - s["t"][0])
-        Binv = Finv[:, :, 3:] / s["rho"][:, None, None] ** 3          # B = I (all axes)
-        Psi = (F0[-1] + (J[-1] - J)[:, None, None] * F1[-1]) @ Binv
-        G = s["half"] * jnp.einsum("i,iab,icb->ac", w * s["rho"] ** 2, Psi, Psi)
-        d = s["XT"] - (F0[-1] + J[-1] * F1[-1]) @ Finv[0] @ s["X0"]
-        return s, F0, F1, Finv, J, Binv, Psi, G, d
-
-    def control(p):
-        s, F0, F1, Finv, J, Binv, Psi, G, d = gramian(p)
-        nu = jnp.linalg.solve(G, -d)          # the law solves the 4x4 and 2x2 blocks apart
-        return -(s["rho"] ** 2)[:, None] * jnp.einsum("iab,a->ib", Psi, nu)
-
-    def states(p):
-        s, F0, F1, Finv, J, Binv, Psi, G, d = gramian(p)
-        nu = jnp.linalg.solve(G, -d)
-        U = -(s["rho"] ** 2)[:, None] * jnp.einsum("iab,a->ib", Psi, nu)
-        integrand = jnp.einsum("iab,ib->ia", (F0[0] - J[:, None, None] * F1[0]) @ Binv, U)
-        inner = s["X0"] + s["half"] * S @ integrand
-        return U, jnp.einsum("iab,ib->ia", (F0 + J[:, None, None] * F1) @ Finv[0], inner)
+        return (jax.vmap(ya_inplane_fundamental, in_axes=(0, None))(s["f"], s["e"]),
+                jax.vmap(ya_inplane_inverse, in_axes=(0, None))(s["f"], s["e"]))
 
     stages = {
-        "_setup (Kepler solve at the nodes, TH boundary states)":
+        "_setup (Kepler solve, node times, TH boundary states)":
             lambda p: {k: v for k, v in _setup(p, grid).items() if k != "prob"},
-        "+ YA fundamental matrices F0, F1, F^-1 at the nodes": fundamentals,
-        "+ Psi_i = Phi(fT, f_i) B_i and the Gramian": gramian,
-        "+ solve for nu and the nodal controls U": control,
-        "+ nodal states by variation of constants": states,
-        "full stm_law (+ costates, eigvalsh rcond, _finish)": None,
+        "_setup + in-plane YA matrices F0, F1, F^-1 at the nodes": matrices,
+        "stm_law, cost only (dead outputs removed by XLA)": lambda p: stm_law(p, grid).cost,
+        "stm_law, full Solution": lambda p: stm_law(p, grid),
     }
     out = {}
     for label, fn in stages.items():
-        if fn is None:
-            f, args = jax.jit(jax.vmap(stm_law, in_axes=(0, None))), (probs, grid)
-        else:
-            f, args = jax.jit(jax.vmap(fn)), (probs,)
-        block(f(*args))
-        t = timed(lambda: block(f(*args)), min_repeats=5, budget_s=1.5)
-        out[label] = dict(batch_median_s=t["median_s"], per_problem_us=t["median_s"] / batch * 1e6)
-    # the cost of the small batched matrix-matrix products that dominate: one (n, 6, 6) @ (6, 6)
-    # per problem against the matrix-vector product it feeds
-    n = grid.n
-    Fs = jnp.ones((batch, n, 6, 6)) + jnp.arange(36.0).reshape(6, 6) * 1e-3
-    mm = jax.jit(lambda a: a @ a[:, :1])
-    mv = jax.jit(lambda a: jnp.einsum("bnij,bj->bni", a, a[:, 0, 0]))
-    for label, f in (("one (n,6,6)@(6,6) product per problem", mm),
-                     ("one (n,6,6)@(6,) product per problem", mv)):
-        block(f(Fs))
-        t = timed(lambda: block(f(Fs)), min_repeats=5, budget_s=1.0)
+        f = jax.jit(jax.vmap(fn))
+        block(f(probs))
+        t = timed(lambda: block(f(probs)), min_repeats=5, budget_s=1.5)
         out[label] = dict(batch_median_s=t["median_s"], per_problem_us=t["median_s"] / batch * 1e6)
     return out
 
@@ -574,7 +533,7 @@ def print_table(res):
               f"{x['batched_vs_ipopt_constant_derivatives']:.1f}x, vs scipy floor ("
               f"{sc['floor']}) {x['batched_vs_scipy_floor_assembly_and_solve']:.1f}x, "
               f"solve only {x['batched_vs_scipy_floor_solve_only']:.1f}x")
-    print(f"\nSTM law breakdown (jit(vmap) x{bn}, per problem, cumulative):")
+    print(f"\nSTM law breakdown (jit(vmap) x{bn}, per problem):")
     for label, v in res["stm_profile"].items():
         print(f"  {label:<56}{v['per_problem_us']:>9.1f} us")
 

@@ -2,42 +2,34 @@
 
 Yamanaka & Ankersen, "New state transition matrix for relative motion on an arbitrary
 elliptical orbit", JGCD 25(1), 2002, eq. (82)-(86), written in our LVLH axes (x radial out,
-y along-track, z normal): with YA's axes (x_Y along-track, z_Y radial inward, y_Y = -h) the
-in-plane state maps as [x~, y~, x~', y~'] = [-z_Y, x_Y, -z_Y', x_Y'].
+y along-track, z normal). YA's axes are x_Y along-track, z_Y radial inward, y_Y = -h, so the
+in-plane state maps as [x~, y~, x~', y~'] = [-z_Y, x_Y, -z_Y', x_Y'] (a signed permutation,
+applied here by indexing, not by matrix products).
 
 Phi(f, f0) = F(f; J) F^-1(f0), where YA's fundamental matrix F is affine in the secular term
 J = k^2 (t - t0): F = F0(f) + J F1(f). J is the time since the START of the transition (s
 times 1/s), never wrapped at one period: callers pass dt = t - t0 computed continuously.
-Full 6x6 matrices act on the TH state [x~, y~, z~, x~', y~', z~'].
+In-plane state [x~, y~, x~', y~'] (4x4), out-of-plane [z~, z~'] (2x2), full TH state
+[x~, y~, z~, x~', y~', z~'] (6x6).
 """
 
 import jax.numpy as jnp
 import numpy as np
 
-# Our in-plane state = P @ YA in-plane state; embedded into the 6-state at these indices.
-_P = np.array([[0.0, -1.0, 0.0, 0.0],
-               [1.0, 0.0, 0.0, 0.0],
-               [0.0, 0.0, 0.0, -1.0],
-               [0.0, 0.0, 1.0, 0.0]])
-_IP = np.array([0, 1, 3, 4])
-_OP = np.array([2, 5])
-_EMBED_IP = np.zeros((6, 4))
-_EMBED_IP[_IP, np.arange(4)] = 1.0
-_EMBED_OP = np.zeros((6, 2))
-_EMBED_OP[_OP, np.arange(2)] = 1.0
-_E = _EMBED_IP @ _P          # 6x4: YA in-plane -> our 6-state
+_PERM = np.array([1, 0, 3, 2])            # ours[a] = SIGN[a] * ya[PERM[a]]
+_SIGN = np.array([-1.0, 1.0, -1.0, 1.0])
+_SIGNS = _SIGN[:, None] * _SIGN[None, :]
+IP = np.array([0, 1, 3, 4])               # in-plane / out-of-plane slots of the 6-state
+OP = np.array([2, 5])
 
 
-def _embed(ip_ya, op):
-    """6x6 matrix from a YA-axes in-plane 4x4 block and an out-of-plane 2x2 block."""
-    return _E @ ip_ya @ _E.T + _EMBED_OP @ op @ _EMBED_OP.T
+def _ours(m_ya):
+    """P M P^T for YA-axes in-plane 4x4 matrices (any leading dimensions)."""
+    return m_ya[..., _PERM, :][..., :, _PERM] * _SIGNS
 
 
-def ya_fundamental(f, e):
-    """(F0, F1): YA's Phi_theta (eq. 84) = F0(f) + J F1(f), as 6x6 matrices in our axes.
-
-    The out-of-plane part (z~'' = -z~) is the rotation [[cos f, sin f], [-sin f, cos f]].
-    """
+def ya_inplane_fundamental(f, e):
+    """(F0, F1): YA's Phi_theta (eq. 84) = F0(f) + J F1(f), in-plane 4x4, our axes."""
     rho = 1.0 + e * jnp.cos(f)
     sf, cf = jnp.sin(f), jnp.cos(f)
     s, c = rho * sf, rho * cf
@@ -56,15 +48,13 @@ def ya_fundamental(f, e):
         [z, z, z, -6 * e * s],
         [z, z, z, -3 * e * sp],
     ])
-    rot = jnp.array([[cf, sf], [-sf, cf]])
-    return _embed(F0, rot), _embed(F1, jnp.zeros((2, 2), dtype=rho.dtype))
+    return _ours(F0), _ours(F1)
 
 
-def ya_fundamental_inverse(f0, e):
-    """F^-1 at f0 (YA eq. 85; J = 0 there) as a 6x6 matrix in our axes."""
+def ya_inplane_inverse(f0, e):
+    """F^-1 at f0 (YA eq. 85; J = 0 there), in-plane 4x4, our axes."""
     rho = 1.0 + e * jnp.cos(f0)
-    sf, cf = jnp.sin(f0), jnp.cos(f0)
-    s, c = rho * sf, rho * cf
+    s, c = rho * jnp.sin(f0), rho * jnp.cos(f0)
     z = jnp.zeros_like(rho)
     m = jnp.array([
         [1 - e**2 + z, 3 * e * s * (1 / rho + 1 / rho**2), -e * s * (1 + 1 / rho), -e * c + 2],
@@ -72,8 +62,25 @@ def ya_fundamental_inverse(f0, e):
         [z, -3 * (c / rho + e), c * (1 + 1 / rho) + e, -s],
         [z, 3 * rho + e**2 - 1, -rho**2, e * s],
     ]) / (1 - e**2)
-    rot_t = jnp.array([[cf, -sf], [sf, cf]])
-    return _embed(m, rot_t)
+    return _ours(m)
+
+
+def ya_outofplane_fundamental(f):
+    """Out-of-plane fundamental matrix of z~'' = -z~ for [z~, z~'] (YA eq. 83); its inverse is
+    its transpose."""
+    return jnp.array([[jnp.cos(f), jnp.sin(f)], [-jnp.sin(f), jnp.cos(f)]])
+
+
+def yamanaka_ankersen_inplane(f, f0, dt, e, k2):
+    """In-plane 4x4 STM for [x~, y~, x~', y~'] from f0 to f; dt = t - t0 (s), k2 (1/s)."""
+    F0, F1 = ya_inplane_fundamental(f, e)
+    return (F0 + k2 * dt * F1) @ ya_inplane_inverse(f0, e)
+
+
+def yamanaka_ankersen_outofplane(f, f0):
+    """Out-of-plane 2x2 STM for [z~, z~'] (Mei 2010 prints it for [z~', z~]): a rotation by
+    f - f0."""
+    return ya_outofplane_fundamental(f) @ ya_outofplane_fundamental(f0).T
 
 
 def yamanaka_ankersen_stm(f, f0, dt, e, k2):
@@ -81,17 +88,6 @@ def yamanaka_ankersen_stm(f, f0, dt, e, k2):
 
     dt = t - t0 (s, continuous, any sign); k2 = sqrt(mu/p^3) (1/s).
     """
-    F0, F1 = ya_fundamental(f, e)
-    return (F0 + k2 * dt * F1) @ ya_fundamental_inverse(f0, e)
-
-
-def yamanaka_ankersen_inplane(f, f0, dt, e, k2):
-    """In-plane 4x4 STM for [x~, y~, x~', y~']."""
-    return yamanaka_ankersen_stm(f, f0, dt, e, k2)[np.ix_(_IP, _IP)]
-
-
-def yamanaka_ankersen_outofplane(f, f0):
-    """Out-of-plane 2x2 STM for [z~, z~'] (YA eq. 83; Mei 2010 prints it for [z~', z~]):
-    a rotation by f - f0."""
-    d = f - f0
-    return jnp.array([[jnp.cos(d), jnp.sin(d)], [-jnp.sin(d), jnp.cos(d)]])
+    ip = yamanaka_ankersen_inplane(f, f0, dt, e, k2)
+    phi = jnp.zeros((6, 6), dtype=ip.dtype).at[np.ix_(IP, IP)].set(ip)
+    return phi.at[np.ix_(OP, OP)].set(yamanaka_ankersen_outofplane(f, f0))

@@ -26,8 +26,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..dynamics import ya_fundamental, ya_fundamental_inverse
-from ..linalg import RCOND_SINGULAR, spd_rcond
+from ..dynamics import ya_inplane_fundamental, ya_inplane_inverse, ya_outofplane_fundamental
+from ..linalg import RCOND_SINGULAR, small_spd_solve
 from ..orbits import lvlh_to_th, th_to_lvlh, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
 from .solution import Solution
@@ -77,13 +77,63 @@ def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, s
                     method=method, **outputs)
 
 
-def _mask_matrix(thrust_axes):
-    return np.diag(np.asarray(thrust_axes, dtype=np.float64))
+def _mv(m, v):
+    """Batched small matrix-vector product as multiply-and-sum (faster than dot on XLA:CPU)."""
+    return jnp.sum(m * v[..., None, :], axis=-1)
+
+
+def _mm(a, b):
+    """Batched small matrix product as multiply-and-sum."""
+    return jnp.sum(a[..., :, :, None] * b[..., None, :, :], axis=-2)
+
+
+def _mtv(m, v):
+    """Batched m^T v for small matrices."""
+    return jnp.sum(m * v[..., :, None], axis=-2)
+
+
+def _stm_block(F0, F1, Finv, vel, J, X0, XT, rho, c, half, S):
+    """Mei 2010 eq. (9)-(10) for one decoupled block (in-plane k = 4 or out-of-plane k = 2).
+
+    F0, F1, Finv: (n, k, k) YA fundamental-matrix parts at the nodes; vel: the block's
+    velocity slots (where B(f) = I/rho^3 acts), with removed thrust axes dropped; J: (n,)
+    k^2 (t_i - t_0); c_i = (fT - f0)/2 w_i rho_i^2; S: the LGL integration matrix.
+    Psi_i = (F0_T + (J_T - J_i) F1_T) Binv_i, so the Gramian is
+    A S0 A^T + A S1 C^T + C S1 A^T + C S2 C^T with A = F0_T, C = F1_T and the moments
+    S_p = sum_i c_i (J_T - J_i)^p Binv_i Binv_i^T.
+    """
+    Binv = Finv[:, :, vel] / rho[:, None, None] ** 3                 # F^-1(f_i) B(f_i)
+    Jt = J[-1] - J
+    outer = jnp.sum(Binv[:, :, None, :] * Binv[:, None, :, :], axis=-1)   # (n, k, k)
+    S0, S1, S2 = (jnp.sum((c * Jt**p)[:, None, None] * outer, axis=0) for p in range(3))
+    A, C = F0[-1], F1[-1]
+    AS1C = _mm(_mm(A, S1), C.T)
+    Gram = _mm(_mm(A, S0), A.T) + AS1C + AS1C.T + _mm(_mm(C, S2), C.T)
+    d = XT - _mv(A + J[-1] * C, _mv(Finv[0], X0))
+    neg_nu, rcond = small_spd_solve(Gram, d)
+    nu = -neg_nu
+    q = _mtv(A, nu)[None, :] + Jt[:, None] * _mtv(C, nu)[None, :]   # Phi(fT, f_i)^T nu via F
+    U_act = -(rho**2)[:, None] * _mtv(Binv, q)                     # controls on existing axes
+    BU = _mv(Binv, U_act)                                           # F^-1(f_j) B_j U_j
+    g = _mv(F0[0], BU) - J[:, None] * _mv(F1[0], BU)               # Phi(f0, f_j) B_j U_j
+    inner = X0 + half * (S @ g)
+    X = _mv(F0 + J[:, None, None] * F1, _mv(Finv[0], inner))         # Phi(f_i, f0) inner_i
+    costates = _mtv(Finv, q)                                        # Phi(fT, f_i)^T nu
+    con_res = jnp.max(jnp.abs(X[-1] - XT))
+    dmax = jnp.max(jnp.abs(d))
+    stat_res = jnp.max(jnp.abs(_mv(Gram, nu) + d)) / jnp.where(dmax > 0, dmax, 1.0)
+    return X, U_act, costates, nu, con_res, stat_res, rcond
+
+
+def _interleave(ip, op):
+    """6-state arrays from in-plane [x~, y~, x~', y~'] and out-of-plane [z~, z~'] parts."""
+    return jnp.concatenate([ip[..., :2], op[..., :1], ip[..., 2:], op[..., 1:]], axis=-1)
 
 
 def stm_law(problem, grid) -> Solution:
     """Mei 2010 eq. (10) in 3D: U_i = rho_i^2 Psi_i^T G^-1 (X_T - Phi(fT, f0) X_0),
-    Psi_i = Phi(fT, f_i) B(f_i), G = (fT - f0)/2 sum_i w_i rho_i^2 Psi_i Psi_i^T.
+    Psi_i = Phi(fT, f_i) B(f_i), G = (fT - f0)/2 sum_i w_i rho_i^2 Psi_i Psi_i^T, solved for
+    the in-plane (4x4 Gramian) and out-of-plane (2x2) blocks separately.
 
     Nodal states by variation of constants with the LGL integration matrix S:
     X(f_i) = Phi(f_i, f0) [X_0 + (fT - f0)/2 sum_j S_ij Phi(f0, f_j) B_j U_j].
@@ -91,35 +141,22 @@ def stm_law(problem, grid) -> Solution:
     """
     s = _setup(problem, grid)
     e, k2, f, t, rho, half = s["e"], s["k2"], s["f"], s["t"], s["rho"], s["half"]
-    F0, F1 = jax.vmap(ya_fundamental, in_axes=(0, None))(f, e)         # (n, 6, 6)
-    Finv = jax.vmap(ya_fundamental_inverse, in_axes=(0, None))(f, e)
-    J = k2 * (t - t[0])                                                  # J_i from the start
-    B = jnp.asarray(_mask_matrix(problem.thrust_axes))
-    Binv = Finv[:, :, 3:] @ B / rho[:, None, None] ** 3                  # F^-1(f_i) B(f_i)
-    FT = F0[-1] + (J[-1] - J)[:, None, None] * F1[-1]                    # F(fT; J_T - J_i)
-    Psi = FT @ Binv                                                      # (n, 6, 3)
-    Gram = half * jnp.einsum("i,iab,icb->ac", grid.weights * rho**2, Psi, Psi)
-    d = s["XT"] - (F0[-1] + J[-1] * F1[-1]) @ Finv[0] @ s["X0"]
-
-    nu = jnp.zeros(6, dtype=d.dtype)
-    rconds = []
-    for idx in (_IP, _OP):
-        Gb = Gram[np.ix_(idx, idx)]
-        rconds.append(spd_rcond(Gb))
-        nu = nu.at[idx].set(-jnp.linalg.solve(Gb, d[idx]))
-    rcond = jnp.minimum(*rconds)
-    U = -(rho**2)[:, None] * jnp.einsum("iab,a->ib", Psi, nu)                # (n, 3)
-
-    # nodal states: Phi(f0, f_j) = (F0(f0) - J_j F1(f0)) F^-1(f_j), Phi(f_i, f0) likewise
-    F_back = F0[0] - J[:, None, None] * F1[0]
-    integrand = jnp.einsum("iab,ib->ia", F_back @ Binv, U)
-    inner = s["X0"] + half * grid.integration @ integrand
-    X = jnp.einsum("iab,ib->ia", (F0 + J[:, None, None] * F1) @ Finv[0], inner)
-
-    costates = jnp.einsum("iba,b->ia", FT @ Finv, nu)
-    con_res = jnp.max(jnp.abs(X[-1] - s["XT"]))
-    stat_res = jnp.max(jnp.abs(Gram @ nu + d)) / jnp.max(jnp.abs(d))
-    return _finish("stm", s, grid, X, U, costates, nu, con_res, stat_res, rcond)
+    J = k2 * (t - t[0])
+    c = half * grid.weights * rho**2
+    axes = np.asarray(problem.thrust_axes)
+    F0, F1 = jax.vmap(ya_inplane_fundamental, in_axes=(0, None))(f, e)
+    Finv = jax.vmap(ya_inplane_inverse, in_axes=(0, None))(f, e)
+    R = jax.vmap(ya_outofplane_fundamental)(f)
+    n = f.shape[0]
+    ip = _stm_block(F0, F1, Finv, np.array([2, 3])[axes[:2]], J, s["X0"][_IP], s["XT"][_IP],
+                    rho, c, half, grid.integration)
+    op = _stm_block(R, jnp.zeros_like(R), jnp.swapaxes(R, 1, 2), np.array([1])[axes[2:]], J,
+                    s["X0"][_OP], s["XT"][_OP], rho, c, half, grid.integration)
+    U = jnp.zeros((n, 3), dtype=rho.dtype)
+    U = U.at[:, np.flatnonzero(axes[:2])].set(ip[1]).at[:, 2 + np.flatnonzero(axes[2:])].set(op[1])
+    return _finish("stm", s, grid, _interleave(ip[0], op[0]), U, _interleave(ip[2], op[2]),
+                   _interleave(ip[3], op[3]), jnp.maximum(ip[4], op[4]),
+                   jnp.maximum(ip[5], op[5]), jnp.minimum(ip[6], op[6]))
 
 
 def _second_order_blocks(e, f):
