@@ -10,7 +10,9 @@ Phi(f, f0) = F(f; J) F^-1(f0), where YA's fundamental matrix F is affine in the 
 J = k^2 (t - t0): F = F0(f) + J F1(f). J is the time since the START of the transition (s
 times 1/s), never wrapped at one period: callers pass dt = t - t0 computed continuously.
 In-plane state [x~, y~, x~', y~'] (4x4), out-of-plane [z~, z~'] (2x2), full TH state
-[x~, y~, z~, x~', y~', z~'] (6x6).
+[x~, y~, z~, x~', y~', z~'] (6x6). The fundamental-matrix functions are elementwise in f: for
+an array of anomalies they return shape (4, 4, *f.shape), matrix axes first (node values
+contiguous, which is what batched laws want).
 """
 
 import jax.numpy as jnp
@@ -24,8 +26,9 @@ OP = np.array([2, 5])
 
 
 def _ours(m_ya):
-    """P M P^T for YA-axes in-plane 4x4 matrices (any leading dimensions)."""
-    return m_ya[..., _PERM, :][..., :, _PERM] * _SIGNS
+    """P M P^T for YA-axes in-plane matrices of shape (4, 4, ...)."""
+    signs = _SIGNS.reshape(_SIGNS.shape + (1,) * (m_ya.ndim - 2))
+    return m_ya[_PERM][:, _PERM] * signs
 
 
 def ya_inplane_fundamental(f, e):
@@ -68,7 +71,8 @@ def ya_inplane_inverse(f0, e):
 def ya_outofplane_fundamental(f):
     """Out-of-plane fundamental matrix of z~'' = -z~ for [z~, z~'] (YA eq. 83); its inverse is
     its transpose."""
-    return jnp.array([[jnp.cos(f), jnp.sin(f)], [-jnp.sin(f), jnp.cos(f)]])
+    c, s = jnp.cos(f), jnp.sin(f)
+    return jnp.array([[c, s], [-s, c]])
 
 
 def yamanaka_ankersen_inplane(f, f0, dt, e, k2):

@@ -77,52 +77,38 @@ def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, s
                     method=method, **outputs)
 
 
-def _mv(m, v):
-    """Batched small matrix-vector product as multiply-and-sum (faster than dot on XLA:CPU)."""
-    return jnp.sum(m * v[..., None, :], axis=-1)
-
-
-def _mm(a, b):
-    """Batched small matrix product as multiply-and-sum."""
-    return jnp.sum(a[..., :, :, None] * b[..., None, :, :], axis=-2)
-
-
-def _mtv(m, v):
-    """Batched m^T v for small matrices."""
-    return jnp.sum(m * v[..., :, None], axis=-2)
-
-
 def _stm_block(F0, F1, Finv, vel, J, X0, XT, rho, c, half, S):
     """Mei 2010 eq. (9)-(10) for one decoupled block (in-plane k = 4 or out-of-plane k = 2).
 
-    F0, F1, Finv: (n, k, k) YA fundamental-matrix parts at the nodes; vel: the block's
-    velocity slots (where B(f) = I/rho^3 acts), with removed thrust axes dropped; J: (n,)
-    k^2 (t_i - t_0); c_i = (fT - f0)/2 w_i rho_i^2; S: the LGL integration matrix.
+    F0, F1, Finv: (k, k, n) YA fundamental-matrix parts at the nodes (matrix axes first);
+    vel: the block's velocity slots (where B(f) = I/rho^3 acts), removed thrust axes dropped;
+    J: (n,) k^2 (t_i - t_0); c_i = (fT - f0)/2 w_i rho_i^2; S: the LGL integration matrix.
     Psi_i = (F0_T + (J_T - J_i) F1_T) Binv_i, so the Gramian is
     A S0 A^T + A S1 C^T + C S1 A^T + C S2 C^T with A = F0_T, C = F1_T and the moments
-    S_p = sum_i c_i (J_T - J_i)^p Binv_i Binv_i^T.
+    S_p = sum_i c_i (J_T - J_i)^p Binv_i Binv_i^T. Returns node-major arrays.
     """
-    Binv = Finv[:, :, vel] / rho[:, None, None] ** 3                 # F^-1(f_i) B(f_i)
+    Binv = Finv[:, vel, :] / rho**3                                  # F^-1(f_i) B(f_i): (k, m, n)
     Jt = J[-1] - J
-    outer = jnp.sum(Binv[:, :, None, :] * Binv[:, None, :, :], axis=-1)   # (n, k, k)
-    S0, S1, S2 = (jnp.sum((c * Jt**p)[:, None, None] * outer, axis=0) for p in range(3))
-    A, C = F0[-1], F1[-1]
-    AS1C = _mm(_mm(A, S1), C.T)
-    Gram = _mm(_mm(A, S0), A.T) + AS1C + AS1C.T + _mm(_mm(C, S2), C.T)
-    d = XT - _mv(A + J[-1] * C, _mv(Finv[0], X0))
+    outer = jnp.einsum("amn,bmn->abn", Binv, Binv)
+    S0, S1, S2 = (outer @ (c * Jt**p) for p in range(3))
+    A, C = F0[:, :, -1], F1[:, :, -1]
+    AS1C = A @ S1 @ C.T
+    Gram = A @ S0 @ A.T + AS1C + AS1C.T + C @ S2 @ C.T
+    d = XT - (A + J[-1] * C) @ (Finv[:, :, 0] @ X0)
     neg_nu, rcond = small_spd_solve(Gram, d)
     nu = -neg_nu
-    q = _mtv(A, nu)[None, :] + Jt[:, None] * _mtv(C, nu)[None, :]   # Phi(fT, f_i)^T nu via F
-    U_act = -(rho**2)[:, None] * _mtv(Binv, q)                     # controls on existing axes
-    BU = _mv(Binv, U_act)                                           # F^-1(f_j) B_j U_j
-    g = _mv(F0[0], BU) - J[:, None] * _mv(F1[0], BU)               # Phi(f0, f_j) B_j U_j
-    inner = X0 + half * (S @ g)
-    X = _mv(F0 + J[:, None, None] * F1, _mv(Finv[0], inner))         # Phi(f_i, f0) inner_i
-    costates = _mtv(Finv, q)                                        # Phi(fT, f_i)^T nu
-    con_res = jnp.max(jnp.abs(X[-1] - XT))
+    q = (A.T @ nu)[:, None] + (C.T @ nu)[:, None] * Jt               # Phi(fT, f_i)^T nu: (k, n)
+    U_act = -(rho**2) * jnp.einsum("amn,an->mn", Binv, q)            # existing axes: (m, n)
+    BU = jnp.einsum("amn,mn->an", Binv, U_act)                       # F^-1(f_j) B_j U_j
+    g = F0[:, :, 0] @ BU - (F1[:, :, 0] @ BU) * J                     # Phi(f0, f_j) B_j U_j
+    inner = X0[:, None] + half * (g @ S.T)
+    w = Finv[:, :, 0] @ inner
+    X = jnp.einsum("abn,bn->an", F0, w) + J * jnp.einsum("abn,bn->an", F1, w)
+    costates = jnp.einsum("abn,an->bn", Finv, q)                     # Phi(fT, f_i)^T nu
+    con_res = jnp.max(jnp.abs(X[:, -1] - XT))
     dmax = jnp.max(jnp.abs(d))
-    stat_res = jnp.max(jnp.abs(_mv(Gram, nu) + d)) / jnp.where(dmax > 0, dmax, 1.0)
-    return X, U_act, costates, nu, con_res, stat_res, rcond
+    stat_res = jnp.max(jnp.abs(Gram @ nu + d)) / jnp.where(dmax > 0, dmax, 1.0)
+    return X.T, U_act.T, costates.T, nu, con_res, stat_res, rcond
 
 
 def _interleave(ip, op):
@@ -144,13 +130,13 @@ def stm_law(problem, grid) -> Solution:
     J = k2 * (t - t[0])
     c = half * grid.weights * rho**2
     axes = np.asarray(problem.thrust_axes)
-    F0, F1 = jax.vmap(ya_inplane_fundamental, in_axes=(0, None))(f, e)
-    Finv = jax.vmap(ya_inplane_inverse, in_axes=(0, None))(f, e)
-    R = jax.vmap(ya_outofplane_fundamental)(f)
+    F0, F1 = ya_inplane_fundamental(f, e)                              # (4, 4, n)
+    Finv = ya_inplane_inverse(f, e)
+    R = ya_outofplane_fundamental(f)                                    # (2, 2, n)
     n = f.shape[0]
     ip = _stm_block(F0, F1, Finv, np.array([2, 3])[axes[:2]], J, s["X0"][_IP], s["XT"][_IP],
                     rho, c, half, grid.integration)
-    op = _stm_block(R, jnp.zeros_like(R), jnp.swapaxes(R, 1, 2), np.array([1])[axes[2:]], J,
+    op = _stm_block(R, jnp.zeros_like(R), jnp.swapaxes(R, 0, 1), np.array([1])[axes[2:]], J,
                     s["X0"][_OP], s["XT"][_OP], rho, c, half, grid.integration)
     U = jnp.zeros((n, 3), dtype=rho.dtype)
     U = U.at[:, np.flatnonzero(axes[:2])].set(ip[1]).at[:, 2 + np.flatnonzero(axes[2:])].set(op[1])
