@@ -210,3 +210,13 @@ def test_bad_grid_method_and_float32():
             solve(prob, lgl(9), "kkt")
     finally:
         jax.config.update("jax_enable_x64", True)
+
+
+def test_import_sets_the_cpu_scheduler_workaround():
+    """Without it, jit(vmap(kkt_law)) can deadlock in jaxlib 0.10's batched QR (BENCHMARKS.md);
+    the vmap tests above would hang rather than fail."""
+    import os
+
+    from jaxlpm import _cpu_runtime
+
+    assert _cpu_runtime.SCHEDULER_FLAG in os.environ.get("XLA_FLAGS", "")
