@@ -27,13 +27,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..dynamics import ya_inplane_fundamental, ya_inplane_inverse, ya_outofplane_fundamental
+from ..dynamics.stm import IP, OP
 from ..linalg import RCOND_SINGULAR, small_spd_solve
 from ..orbits import lvlh_to_th, th_to_lvlh, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
 from .solution import Solution
 
-_IP = np.array([0, 1, 3, 4])   # in-plane components of the TH state
-_OP = np.array([2, 5])         # out-of-plane components
 
 
 def _setup(problem, grid):
@@ -112,8 +111,9 @@ def _stm_block(F0, F1, Finv, vel, J, X0, XT, rho, c, half, S):
 
 
 def _interleave(ip, op):
-    """6-state arrays from in-plane [x~, y~, x~', y~'] and out-of-plane [z~, z~'] parts."""
-    return jnp.concatenate([ip[..., :2], op[..., :1], ip[..., 2:], op[..., 1:]], axis=-1)
+    """6-state arrays (..., 6) from in-plane (..., 4) and out-of-plane (..., 2) parts."""
+    out = jnp.zeros(ip.shape[:-1] + (6,), dtype=ip.dtype)
+    return out.at[..., IP].set(ip).at[..., OP].set(op)
 
 
 def stm_law(problem, grid) -> Solution:
@@ -134,10 +134,10 @@ def stm_law(problem, grid) -> Solution:
     Finv = ya_inplane_inverse(f, e)
     R = ya_outofplane_fundamental(f)                                    # (2, 2, n)
     n = f.shape[0]
-    ip = _stm_block(F0, F1, Finv, np.array([2, 3])[axes[:2]], J, s["X0"][_IP], s["XT"][_IP],
+    ip = _stm_block(F0, F1, Finv, np.array([2, 3])[axes[:2]], J, s["X0"][IP], s["XT"][IP],
                     rho, c, half, grid.integration)
     op = _stm_block(R, jnp.zeros_like(R), jnp.swapaxes(R, 0, 1), np.array([1])[axes[2:]], J,
-                    s["X0"][_OP], s["XT"][_OP], rho, c, half, grid.integration)
+                    s["X0"][OP], s["XT"][OP], rho, c, half, grid.integration)
     U = jnp.zeros((n, 3), dtype=rho.dtype)
     U = U.at[:, np.flatnonzero(axes[:2])].set(ip[1]).at[:, 2 + np.flatnonzero(axes[2:])].set(op[1])
     return _finish("stm", s, grid, _interleave(ip[0], op[0]), U, _interleave(ip[2], op[2]),
