@@ -12,13 +12,17 @@ _cpu_runtime.apply()
 from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
 from .orbits import KeplerOrbit  # noqa: E402
-from .problems import EnergyOptimalTransfer  # noqa: E402
-from .solvers import Solution, solve  # noqa: E402
+from .problems import EnergyOptimalTransfer, OptimalControlProblem  # noqa: E402
+from .solvers import NewtonOptions, Solution, TransferSolution, newton_kkt, solve  # noqa: E402
+from .solvers.lqr import Flight, finite_horizon_lqr, hcw_lqr, infinite_horizon_flight  # noqa: E402
+from .solvers.riccati import CareSolution, care  # noqa: E402
 from .status import Status, describe  # noqa: E402
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "EnergyOptimalTransfer", "Grid", "KeplerOrbit", "Solution", "Status", "constants",
-    "describe", "lg", "lgl", "lgr", "make_grid", "solve", "__version__",
+    "EnergyOptimalTransfer", "Grid", "KeplerOrbit", "NewtonOptions", "OptimalControlProblem",
+    "Solution", "Status", "TransferSolution", "constants", "describe", "lg", "lgl", "lgr",
+    "make_grid", "newton_kkt", "solve", "__version__",
+    "CareSolution", "Flight", "care", "finite_horizon_lqr", "hcw_lqr", "infinite_horizon_flight",
 ]

@@ -21,10 +21,23 @@ def _dense_solve(matvec, b, **kwargs):
     return unravel(jnp.linalg.solve(cols.T, flat_b))
 
 
-def root(optimality_fun):
+def _dense_solve_or_zero(matvec, b, **kwargs):
+    """`_dense_solve` whose non-finite solution (a singular tangent system) is replaced by 0."""
+    x = _dense_solve(matvec, b, **kwargs)
+    flat, unravel = ravel_pytree(x)
+    return unravel(jnp.where(jnp.all(jnp.isfinite(flat)), flat, 0.0))
+
+
+def root(optimality_fun, has_aux: bool = False, zero_nonfinite: bool = False):
     """Decorator: `@root(F)` over `solver(init, *theta)` whose result satisfies F(x, *theta) = 0.
 
-    The tangent systems here are small (Kepler's equation, Lambert's time equation), so they
-    are solved densely and exactly rather than by jaxopt's default iterative solver.
+    With has_aux the solver returns (x, aux) and aux (status, counters) is not differentiated.
+    The tangent systems are solved densely and exactly (Kepler's equation, Lambert's time
+    equation, a collocation KKT system of ~10^3 unknowns, the Riccati equation's n^2 x n^2
+    Lyapunov operator), not by jaxopt's default iterative solver, whose loose defaults would
+    spoil gradients. With zero_nonfinite a singular tangent system (a solve that failed and
+    says so in its status) gives zero derivatives instead of NaN, so a batch whose failed
+    members are masked with jnp.where keeps finite gradients.
     """
-    return implicit_diff.custom_root(optimality_fun, solve=_dense_solve)
+    solve = _dense_solve_or_zero if zero_nonfinite else _dense_solve
+    return implicit_diff.custom_root(optimality_fun, has_aux=has_aux, solve=solve)

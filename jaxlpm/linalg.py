@@ -40,3 +40,11 @@ def small_spd_solve(a, b):
     for i in reversed(range(k)):
         x[i] = (y[i] - sum(L[p][i] * x[p] for p in range(i + 1, k))) / safe_piv[i]
     return jnp.stack(x) * s, rcond
+
+
+def qr_rcond(r):
+    """Reciprocal condition estimate min |r_ii| / max |r_ii| of a QR factor's triangle R
+    (0 for a zero matrix)."""
+    d = jnp.abs(jnp.diagonal(r))
+    top = jnp.max(d)
+    return jnp.where(top > 0, jnp.min(d) / jnp.where(top > 0, top, 1.0), 0.0)

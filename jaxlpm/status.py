@@ -11,6 +11,9 @@ class Status(enum.IntEnum):
     INVALID_INPUT = 2
     NONFINITE = 3
     MAX_ITERATIONS = 4
+    STALLED = 5
+    NOT_STABILISABLE = 6
+    NOT_DETECTABLE = 7
 
     @property
     def message(self) -> str:
@@ -29,6 +32,18 @@ _MESSAGES = {
     ),
     Status.NONFINITE: "the solve produced non-finite numbers",
     Status.MAX_ITERATIONS: "the iteration limit was reached before convergence",
+    Status.STALLED: (
+        "the line search could not decrease the merit function: the iterate is not a KKT "
+        "point (a poor initial guess, or an infeasible problem)"
+    ),
+    Status.NOT_STABILISABLE: (
+        "no stabilising Riccati solution: (A, B) is not stabilisable (a mode with Re >= 0 "
+        "that the controls cannot move)"
+    ),
+    Status.NOT_DETECTABLE: (
+        "no stabilising Riccati solution: (Q, A) is not detectable (a mode on the imaginary "
+        "axis that the state weight Q does not see, e.g. an unweighted HCW axis)"
+    ),
 }
 
 

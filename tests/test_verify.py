@@ -12,7 +12,8 @@ jax.config.update("jax_enable_x64", True)
 
 from jaxlpm import KeplerOrbit, lgl, solve  # noqa: E402
 from jaxlpm.cases import mei2010  # noqa: E402
-from jaxlpm.dynamics import relative_two_body_rhs, yamanaka_ankersen_stm  # noqa: E402
+from jaxlpm.constants import R_EARTH  # noqa: E402
+from jaxlpm.dynamics import relative_inertial_rhs, yamanaka_ankersen_stm  # noqa: E402
 from jaxlpm.orbits import (elements_to_state, lvlh_to_relative_inertial, lvlh_to_th,  # noqa: E402
                            relative_inertial_to_lvlh, th_to_lvlh, time_from_true_anomaly,
                            true_anomaly_from_time)
@@ -76,7 +77,7 @@ def test_diffrax_against_scipy_with_control(propagators):
     rc, vc = elements_to_state(ORBIT)
     dr, dv = lvlh_to_relative_inertial(rc, vc, X0)
     rhs = jax.jit(lambda s, f: jnp.concatenate([
-        relative_two_body_rhs(s, ci(f), ORBIT.mu),
+        relative_inertial_rhs(s, ci(f), ORBIT.mu, 0.0, R_EARTH),
         (jnp.linalg.norm(jnp.cross(s[:3], s[3:6])) / jnp.dot(s[:3], s[:3]))[None]]))
     y0 = np.concatenate([rc, vc, dr, dv, [float(ORBIT.f0)]])
     y = solve_ivp(lambda t, y: np.asarray(rhs(y[:12], y[12])), (0, 6000.0), y0,
@@ -117,6 +118,17 @@ def test_reproduce_mei2010(tmp_path):
     assert abs(last["J_stm"] - last["J_kkt"]) / last["J_kkt"] < 1e-8
     # Mei eq. (8) is k^2 times the time-domain energy.
     assert c["J_kkt"] == pytest.approx(c["J_time_kkt"] * float(mei2010.problem().orbit.k2), rel=1e-12)
+    # Issue 3 acceptance: the Newton-KKT transfers on the nonlinear models (two-body; J2 on
+    # both spacecraft), flown through those models by Dopri8, miss by well under 1 m (the
+    # linear laws: hundreds of metres). 0.1 m / 1e-4 m/s sit 10x above the measured
+    # millimetres, which the N = 64 discretisation error sets.
+    for key in ("nonlinear_transfer", "nonlinear_j2_transfer"):
+        t = c[key]
+        assert t["status"] == "SUCCESS" and 1 <= t["iterations"] <= 10
+        assert t["terminal_error_nonlinear"][0] < 0.1 and t["terminal_error_nonlinear"][1] < 1e-4
+    # the nonlinear optimum differs from the linear one by the linearisation's O(|x|/r) ~ 1e-3
+    assert 1e-4 < abs(c["nonlinear_transfer"]["J"] / c["J_kkt"] - 1.0) < 0.05
     for name in ("fig1_control_stm", "fig2_linear_stm", "fig3_nonlinear_stm", "fig4_control_kkt",
-                 "fig5_linear_kkt", "fig6_nonlinear_kkt", "convergence"):
+                 "fig5_linear_kkt", "fig6_nonlinear_kkt", "convergence", "newton_two-body_control",
+                 "newton_two-body_flight", "newton_j2_control", "newton_j2_flight"):
         assert (out / f"{name}.png").stat().st_size > 10_000

@@ -18,13 +18,16 @@ import numpy as np
 from ..collocation import lgl
 from ..orbits import KeplerOrbit
 from ..problems import EnergyOptimalTransfer
-from ..solvers import LAWS
+from ..solvers import LAWS, newton_transfer
+from ..status import Status
 from ..verify import control_interpolant, propagate_linear, propagate_nonlinear, terminal_error
 
 NAME = "mei2010"
 TITLE = "Mei, Ma & Yang 2010: LGL energy-optimal relative transfer on an elliptic orbit"
 N_HEADLINE = 64
 N_CONVERGENCE = (8, 16, 32, 48, 64, 96, 128)
+LQ_LAWS = ("stm", "kkt")
+NONLINEAR_MODELS = {"two-body": "nonlinear_transfer", "j2": "nonlinear_j2_transfer"}
 
 PUBLISHED = {
     "source": "Mei, Ma, Yang, J. Harbin Inst. Technol. 42(3), 2010, §4 and Figs 1-6",
@@ -58,20 +61,30 @@ def _compile(fn, args, options):
     return fn.lower(*args).compile(compiler_options=options)
 
 
+def _fly_nonlinear(orbit, x0, duration, control, j2, r_eq):
+    return propagate_nonlinear(orbit, x0, duration, control, 401, j2, r_eq)
+
+
 def _compile_all(prob, log):
-    """AOT-compile every (law, N) and both propagators, two at a time (one per core)."""
+    """AOT-compile every (law, N), the Newton-KKT transfers and both propagators, two at a
+    time (one per core)."""
     probe = jax.eval_shape(LAWS["kkt"], prob, lgl(N_HEADLINE + 1))
     ci = jax.eval_shape(control_interpolant, probe)
-    jobs = {name: (jax.jit(fn), (prob.orbit, prob.x0, prob.duration, ci), None)   # longest first
-            for name, fn in (("nonlinear", propagate_nonlinear), ("linear", propagate_linear))}
-    jobs.update({(law, N): (jax.jit(fn), (prob, lgl(N + 1)), _QUICK)
-                 for law, fn in LAWS.items() for N in N_CONVERGENCE})
+    jobs = {"nonlinear": (jax.jit(_fly_nonlinear),                          # longest first
+                          (prob.orbit, prob.x0, prob.duration, ci, prob.j2, prob.r_eq), None)}
+    jobs.update({("newton", model): (jax.jit(newton_transfer),
+                                     (prob.replace(model=model), lgl(N_HEADLINE + 1)), None)
+                 for model in NONLINEAR_MODELS})
+    jobs["linear"] = (jax.jit(propagate_linear), (prob.orbit, prob.x0, prob.duration, ci), None)
+    jobs.update({(law, N): (jax.jit(LAWS[law]), (prob, lgl(N + 1)), _QUICK)
+                 for law in LQ_LAWS for N in N_CONVERGENCE})
     t = time.perf_counter()
     with ThreadPoolExecutor(max_workers=2) as pool:
         futures = {k: pool.submit(_compile, *job) for k, job in jobs.items()}
         compiled = {k: fut.result() for k, fut in futures.items()}
     log(f"compiled {len(compiled)} functions (2 laws x {len(N_CONVERGENCE)} grids, "
-        f"2 propagators) in {time.perf_counter() - t:.1f} s")
+        f"{len(NONLINEAR_MODELS)} Newton-KKT transfers, 2 propagators) in "
+        f"{time.perf_counter() - t:.1f} s")
     return compiled
 
 
@@ -85,7 +98,7 @@ def compute(log=print):
     compiled = _compile_all(prob, log)
     t = time.perf_counter()
     sols = {(law, N): compiled[(law, N)](prob, lgl(N + 1))
-            for law in LAWS for N in N_CONVERGENCE}
+            for law in LQ_LAWS for N in N_CONVERGENCE}
     bad = [k for k, s in sols.items() if int(s.status) != 0]
     if bad:
         raise RuntimeError(f"solves did not succeed: {[(k, sols[k].message) for k in bad]}")
@@ -99,18 +112,32 @@ def compute(log=print):
             raise RuntimeError(f"linear propagation failed for {key}")
         lin[key] = (np.asarray(ts), np.asarray(xs))
     nonlin = {}
-    for law in LAWS:
+    for law in LQ_LAWS:
         s = sols[(law, N_HEADLINE)]
         ts, xs, ok = compiled["nonlinear"](prob.orbit, prob.x0, prob.duration,
-                                           control_interpolant(s))
+                                           control_interpolant(s), 0.0, prob.r_eq)
         if not bool(ok):
             raise RuntimeError(f"nonlinear propagation failed for {law}")
         nonlin[law] = (np.asarray(ts), np.asarray(xs))
     log(f"propagated {len(lin)} linear and {len(nonlin)} nonlinear flights (Dopri8, "
         f"rtol 1e-12) in {time.perf_counter() - t:.1f} s")
 
+    t = time.perf_counter()
+    transfers = {}
+    for model in NONLINEAR_MODELS:
+        p = prob.replace(model=model)
+        s = compiled[("newton", model)](p, lgl(N_HEADLINE + 1))
+        j2 = p.j2 if model == "j2" else 0.0
+        ts, xs, ok = compiled["nonlinear"](p.orbit, p.x0, p.duration, control_interpolant(s),
+                                           j2, p.r_eq)
+        if not bool(ok):
+            raise RuntimeError(f"nonlinear propagation failed for the {model} transfer")
+        transfers[model] = (s, np.asarray(ts), np.asarray(xs))
+    log(f"solved and flew the Newton-KKT transfers ({', '.join(NONLINEAR_MODELS)}) in "
+        f"{time.perf_counter() - t:.2f} s")
+
     err = lambda xs: _pair(terminal_error(xs, prob.xf))
-    head = {law: sols[(law, N_HEADLINE)] for law in LAWS}
+    head = {law: sols[(law, N_HEADLINE)] for law in LQ_LAWS}
     computed = {
         "N": N_HEADLINE,
         "J_stm": float(head["stm"].cost_true_anomaly),
@@ -119,8 +146,8 @@ def compute(log=print):
         "J_time_kkt": float(head["kkt"].cost),
         "J_time_stm": float(head["stm"].cost),
         "J_time_units": "m^2/s^3 (1/2 int |u|^2 dt)",
-        "terminal_error_linear": {law: err(lin[(law, N_HEADLINE)][1]) for law in LAWS},
-        "terminal_error_nonlinear": {law: err(nonlin[law][1]) for law in LAWS},
+        "terminal_error_linear": {law: err(lin[(law, N_HEADLINE)][1]) for law in LQ_LAWS},
+        "terminal_error_nonlinear": {law: err(nonlin[law][1]) for law in LQ_LAWS},
         "terminal_error_units": ["m", "m/s"],
         "convergence": [
             {"N": N,
@@ -130,7 +157,19 @@ def compute(log=print):
              "terminal_error_linear_kkt": err(lin[("kkt", N)][1])}
             for N in N_CONVERGENCE],
     }
-    return prob, head, lin, nonlin, computed
+    for model, key in NONLINEAR_MODELS.items():
+        s, _, xs = transfers[model]
+        computed[key] = {
+            "J": float(s.cost_true_anomaly),
+            "J_time": float(s.cost),
+            "terminal_error_nonlinear": err(xs),
+            "iterations": int(s.iterations),
+            "status": Status(int(s.status)).name,
+            "constraint_residual": float(s.constraint_residual),
+            "stationarity_residual": float(s.stationarity_residual),
+            "model": "two-body + J2 on both spacecraft" if model == "j2" else "two-body",
+        }
+    return prob, head, lin, nonlin, transfers, computed
 
 
 NOTES = [
@@ -146,6 +185,13 @@ NOTES = [
     "over the nodes (1.915e-6); it cannot be confirmed without the authors' code.",
     "On the nonlinear two-body model both laws miss by hundreds of metres, as the paper says: "
     "the linearisation, not the law, is the limit (its conclusion 3).",
+    "Beyond the paper (its conclusion 3 asks for an NLP solver): the same transfer solved by "
+    "Newton-KKT on the exact nonlinear relative model, collocated at the same 65 LGL nodes in "
+    "the chief's true anomaly (regularised anomaly int |h|/r^2 dt when J2 acts), warm-started "
+    "from the linear KKT law. Its interpolated control flown through the nonlinear model "
+    "(Dopri8, rtol 1e-12; J2 on both spacecraft for the J2 row) misses by millimetres. The "
+    "J2 chief starts on the paper's elements as osculating elements at f0 (i = raan = 30 deg, "
+    "argp = 10 deg); the transfer lasts the same 3 Keplerian periods.",
 ]
 
 
@@ -167,6 +213,14 @@ def report(computed, log=print):
         e = c["terminal_error_nonlinear"][law]
         rows.append((f"terminal error, nonlinear model, {law.upper()}", "hundreds of m",
                      f"{e[0]:.1f} m, {e[1]:.3f} m/s"))
+    for model, key in NONLINEAR_MODELS.items():
+        t = c[key]
+        rows.append((f"J, Newton-KKT, {t['model']}", "-", f"{t['J']:.10e}"))
+        e = t["terminal_error_nonlinear"]
+        rows.append((f"terminal error of that transfer, {model}", "-",
+                     f"{e[0]:.2e} m, {e[1]:.1e} m/s"))
+        rows.append((f"Newton iterations / status, {model}", "-",
+                     f"{t['iterations']} / {t['status']}"))
     for name, pub, ours in rows:
         log(f"{name:<44}{pub:>20}{ours:>28}")
     log("\nconvergence in N (linear-model terminal position error after propagation):")
@@ -179,9 +233,10 @@ def report(computed, log=print):
         log(f"- {note}")
 
 
-def figures(head, lin, nonlin, computed, out_dir):
+def figures(head, lin, nonlin, transfers, computed, out_dir):
     """Figures like the paper's Figs 1-6 plus a convergence plot; returns the file paths."""
-    from .plots import plot_control, plot_convergence, plot_relative_motion
+    from .plots import (plot_control, plot_control_history, plot_convergence,
+                        plot_relative_motion)
 
     paths = []
     for law, (fc, fl, fn) in {"stm": (1, 2, 3), "kkt": (4, 5, 6)}.items():
@@ -195,15 +250,25 @@ def figures(head, lin, nonlin, computed, out_dir):
             *nonlin[law], out_dir / f"fig{fn}_nonlinear_{law}.png",
             f"Fig. {fn}: relative motion, nonlinear two-body model ({law.upper()} law)"))
     paths.append(plot_convergence(computed["convergence"], out_dir / "convergence.png"))
+    for model, (s, ts, xs) in transfers.items():
+        anomaly = jnp.linspace(s.s0, s.sf, 1500)
+        u = np.asarray(jax.vmap(s.controls_at_anomaly)(anomaly))
+        t = np.asarray(jax.vmap(s.time_at_anomaly)(anomaly))
+        paths.append(plot_control_history(
+            t, u, out_dir / f"newton_{model}_control.png",
+            f"Newton-KKT transfer, {model} model: control (N = 64)"))
+        paths.append(plot_relative_motion(
+            ts, xs, out_dir / f"newton_{model}_flight.png",
+            f"Newton-KKT transfer flown on the {model} model"))
     return paths
 
 
 def reproduce(out_dir, log=print):
     """Run the case: compute, print, draw. Returns the JSON-ready result dict."""
-    _, head, lin, nonlin, computed = compute(log)
+    _, head, lin, nonlin, transfers, computed = compute(log)
     report(computed, log)
     out_dir.mkdir(parents=True, exist_ok=True)
-    for path in figures(head, lin, nonlin, computed, out_dir):
+    for path in figures(head, lin, nonlin, transfers, computed, out_dir):
         log(f"wrote {path}")
     return {"schema_version": 1, "case": NAME, "published": PUBLISHED, "computed": computed,
             "notes": NOTES}

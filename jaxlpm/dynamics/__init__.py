@@ -1,7 +1,10 @@
 """Relative dynamics: linear (HCW, elliptic LVLH, Tschauner-Hempel, Yamanaka-Ankersen STM) and
-nonlinear two-body relative motion."""
+nonlinear (two-body + J2 gravity; relative motion, inertial or in LVLH, without linearisation)."""
 
-from .nonlinear import relative_two_body_rhs, two_body_acceleration
+from .gravity import (gravity_acceleration, gravity_acceleration_difference, inertial_rhs,
+                      j2_acceleration, j2_potential, two_body_acceleration)
+from .nonlinear import (lvlh_frame_motion, relative_inertial_rhs, relative_lvlh_acceleration,
+                        relative_lvlh_rhs)
 from .linear import (chief_polar_rates, elliptic_lvlh_matrix, elliptic_lvlh_rhs, hcw_matrix,
                      hcw_rhs, tschauner_hempel_input_gain, tschauner_hempel_matrix,
                      tschauner_hempel_rhs)
@@ -13,6 +16,8 @@ __all__ = [
     "tschauner_hempel_input_gain", "tschauner_hempel_matrix", "tschauner_hempel_rhs",
     "ya_inplane_fundamental", "ya_inplane_inverse", "ya_outofplane_fundamental",
     "yamanaka_ankersen_inplane",
-    "yamanaka_ankersen_outofplane", "yamanaka_ankersen_stm", "relative_two_body_rhs",
-    "two_body_acceleration",
+    "yamanaka_ankersen_outofplane", "yamanaka_ankersen_stm",
+    "gravity_acceleration", "gravity_acceleration_difference", "inertial_rhs", "j2_acceleration",
+    "j2_potential", "two_body_acceleration", "relative_inertial_rhs", "relative_lvlh_rhs",
+    "lvlh_frame_motion", "relative_lvlh_acceleration",
 ]

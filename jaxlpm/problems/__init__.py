@@ -1,5 +1,6 @@
-"""Optimal-control problem definitions."""
+"""Optimal-control problem definitions and their pseudospectral transcription."""
 
-from .transfer import EnergyOptimalTransfer, check_problem
+from .ocp import OptimalControlProblem
+from .transfer import MODELS, EnergyOptimalTransfer, check_problem
 
-__all__ = ["EnergyOptimalTransfer", "check_problem"]
+__all__ = ["EnergyOptimalTransfer", "MODELS", "OptimalControlProblem", "check_problem"]

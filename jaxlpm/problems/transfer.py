@@ -1,8 +1,13 @@
-"""Energy-optimal relative transfer on the linearised elliptic model (Mei 2010, eq. 5).
+"""Energy-optimal relative transfer (Mei 2010, eq. 5) on a choice of dynamics model.
 
 minimise  J = 1/2 int_0^T |u|^2 dt      (m^2/s^3)
-subject to the linearised relative dynamics about a Keplerian chief (Tschauner-Hempel),
+subject to the relative dynamics of `model`,
            x(0) = x0, x(T) = xf          (LVLH: x radial out, y along-track, z normal; m, m/s)
+
+models: "linear"   linearised about a Keplerian chief (Tschauner-Hempel; the LQ laws' model)
+        "two-body" exact nonlinear relative motion, chief and deputy under two-body gravity
+        "j2"       exact nonlinear relative motion with J2 acting on both spacecraft; the chief
+                   starts on the state that `orbit` gives at its epoch (osculating elements)
 
 The transfer starts at the orbit's epoch (chief true anomaly f0) and lasts `duration` seconds.
 Every numeric field is an array leaf (sweeps over e, states or duration reuse one compiled
@@ -17,7 +22,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import check_finite, check_shape, is_concrete
+from ..constants import J2_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
+
+MODELS = ("linear", "two-body", "j2")
 
 
 @jax.tree_util.register_dataclass
@@ -28,11 +36,15 @@ class EnergyOptimalTransfer:
     xf: jax.Array
     duration: jax.Array
     thrust_axes: tuple = field(default=(True, True, True), metadata=dict(static=True))
+    model: str = field(default="linear", metadata=dict(static=True))
+    j2: jax.Array = J2_EARTH
+    r_eq: jax.Array = R_EARTH
 
     @classmethod
-    def from_revolutions(cls, orbit, x0, xf, revolutions, thrust_axes=(True, True, True)):
+    def from_revolutions(cls, orbit, x0, xf, revolutions, thrust_axes=(True, True, True),
+                         model="linear"):
         """Transfer lasting `revolutions` chief orbital periods (duration = revolutions * 2 pi/n)."""
-        return cls(orbit, x0, xf, revolutions * orbit.period, thrust_axes)
+        return cls(orbit, x0, xf, revolutions * orbit.period, thrust_axes, model)
 
     def replace(self, **kwargs) -> "EnergyOptimalTransfer":
         return replace(self, **kwargs)
@@ -53,6 +65,13 @@ class EnergyOptimalTransfer:
             raise ValueError(f"orbit.a must be a positive semi-major axis in m, got {self.orbit.a}")
         if not float(check_finite("duration", self.duration)) > 0.0:
             raise ValueError(f"duration must be positive (s), got {self.duration}")
+        if self.model not in MODELS:
+            raise ValueError(f"model must be one of {MODELS}, got {self.model!r}")
+        check_shape("j2", self.j2, ())
+        check_shape("r_eq", self.r_eq, ())
+        check_finite("j2", self.j2)
+        if not float(check_finite("r_eq", self.r_eq)) > 0.0:
+            raise ValueError(f"r_eq must be a positive equatorial radius in m, got {self.r_eq}")
         axes = self.thrust_axes
         if len(axes) != 3 or not all(isinstance(a, (bool, np.bool_)) for a in axes):
             raise ValueError(f"thrust_axes must be three booleans (x, y, z), got {axes!r}")
@@ -62,7 +81,9 @@ class EnergyOptimalTransfer:
         o = self.orbit
         finite = jnp.all(jnp.isfinite(self.x0)) & jnp.all(jnp.isfinite(self.xf))
         finite &= jnp.isfinite(o.e) & jnp.isfinite(o.a) & jnp.isfinite(self.duration)
-        return finite & (o.e >= 0.0) & (o.e < 1.0) & (o.a > 0.0) & (self.duration > 0.0)
+        finite &= jnp.isfinite(self.j2) & jnp.isfinite(self.r_eq)
+        return (finite & (o.e >= 0.0) & (o.e < 1.0) & (o.a > 0.0) & (self.duration > 0.0)
+                & (self.r_eq > 0.0))
 
     def sanitized(self, valid):
         """A copy whose leaves are replaced by a harmless problem where `valid` is False, so an

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..dynamics import ya_inplane_fundamental, ya_inplane_inverse, ya_outofplane_fundamental
 from ..dynamics.stm import IP, OP
-from ..linalg import RCOND_SINGULAR, small_spd_solve
+from ..linalg import RCOND_SINGULAR, qr_rcond, small_spd_solve
 from ..orbits import lvlh_to_th, th_to_lvlh, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
 from .solution import Solution
@@ -156,12 +156,6 @@ def _second_order_blocks(e, f):
     return (K_ip, jnp.array([[0.0, 2.0], [-2.0, 0.0]])), (K_op, jnp.zeros((1, 1)))
 
 
-def _qr_rcond(r):
-    d = jnp.abs(jnp.diagonal(r))
-    top = jnp.max(d)
-    return jnp.where(top > 0, jnp.min(d) / jnp.where(top > 0, top, 1.0), 0.0)
-
-
 def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active):
     """Collocated second-order block (Mei 2010 eq. 12-16 for one block of m axes).
 
@@ -201,7 +195,7 @@ def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active):
     Qm, Rm = jnp.linalg.qr(M)
     y = jax.scipy.linalg.solve_triangular(Rm, Qm.T @ rhs, lower=False)
     z = z_p + Z @ y
-    rcond = jnp.minimum(_qr_rcond(Rg1), _qr_rcond(Rm))
+    rcond = jnp.minimum(qr_rcond(Rg1), qr_rcond(Rm))
 
     Q = jnp.concatenate([q0[None], z.reshape(n - 2, m), qT[None]])
     U = jnp.where(act[None, :], jnp.einsum("icj,j->ic", P, z) + q, 0.0)   # removed axes: none

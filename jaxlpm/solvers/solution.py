@@ -1,4 +1,5 @@
-"""The Solution pytree returned by every law: nodal values, cost, multipliers, health."""
+"""Solution pytrees: `Solution` (the LQ laws, LGL) and `TransferSolution` (Newton-KKT, any
+grid and model): nodal values, cost, multipliers, health."""
 
 from dataclasses import dataclass, field
 
@@ -54,6 +55,10 @@ class Solution:
         """The status in words (concrete, unbatched solutions)."""
         return Status(int(self.status)).message
 
+    def anomaly_interval(self):
+        """(f0, fT): the true-anomaly interval the nodes span."""
+        return self.node_f[..., 0], self.node_f[..., -1]
+
     def _tau(self, f):
         f0, fT = self.node_f[0], self.node_f[-1]
         return 2.0 * (f - f0) / (fT - f0) - 1.0
@@ -78,3 +83,75 @@ class Solution:
     def states(self, t):
         """LVLH state (m, m/s) at time t (s since the transfer's start)."""
         return self.states_at_true_anomaly(self._f_of_t(t))
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class TransferSolution:
+    """A transfer solved by the Newton-KKT solver on any grid (LGL, LG, LGR) and model.
+
+    s0, sf        the chief's anomaly at the start and end (rad): true anomaly for the
+                  "linear" and "two-body" models, regularised anomaly int |h|/r^2 dt for "j2"
+    node_s, node_times, node_controls   at the collocation points: anomaly (rad), time since
+                  the start (s), LVLH control acceleration u (m/s^2)
+    state_s, state_times, states        at the state rows (see `jaxlpm.problems.transcription`):
+                  anomaly, time, LVLH state (m, m/s; x radial, y along-track, z normal)
+    cost          1/2 int |u|^2 dt (m^2/s^3), by the grid's quadrature
+    cost_true_anomaly  k^2 * cost (m^2/s^4; Mei 2010 eq. 8's normalisation, k^2 = sqrt(mu/p^3))
+    costates      costate estimates at the collocation points, in the solver's scaled units
+                  (`jaxlpm.problems.relative`), per radian of anomaly
+    multipliers   multipliers of the equality constraints (defects, then boundary)
+    constraint_residual, stationarity_residual   max |c|, max |grad L| (scaled units)
+    iterations    Newton iterations; history: KKT residual per iteration (zeros after)
+    status        `Status` code (int32)
+    """
+
+    problem: object
+    grid: object
+    s0: jax.Array
+    sf: jax.Array
+    node_s: jax.Array
+    node_times: jax.Array
+    node_controls: jax.Array
+    state_s: jax.Array
+    state_times: jax.Array
+    states: jax.Array
+    cost: jax.Array
+    cost_true_anomaly: jax.Array
+    costates: jax.Array
+    multipliers: jax.Array
+    constraint_residual: jax.Array
+    stationarity_residual: jax.Array
+    iterations: jax.Array
+    history: jax.Array
+    status: jax.Array
+    method: str = field(default="newton", metadata=dict(static=True))
+
+    @property
+    def message(self) -> str:
+        """The status in words (concrete, unbatched solutions)."""
+        return Status(int(self.status)).message
+
+    def anomaly_interval(self):
+        """(s0, sf): the anomaly interval the nodes span."""
+        return self.s0, self.sf
+
+    def _tau(self, s):
+        return 2.0 * (s - self.s0) / (self.sf - self.s0) - 1.0
+
+    def controls_at_anomaly(self, s):
+        """u (m/s^2, LVLH) at anomaly s: barycentric Lagrange over the collocation points."""
+        return self.grid.interpolate_control(self.node_controls, self._tau(s))
+
+    def _support(self, values):
+        return values[:-1] if self.grid.scheme == "LG" else values
+
+    def time_at_anomaly(self, s):
+        """Time since the start (s) at anomaly s: Lagrange interpolation of the nodal times."""
+        return self.grid.interpolate_state(self._support(self.state_times), self._tau(s))
+
+    def states_at_anomaly(self, s):
+        """LVLH state (m, m/s) at anomaly s: Lagrange interpolation of the nodal LVLH states
+        over the state polynomial's support (for the "linear" model, whose polynomial is the
+        TH state, this differs from it at the discretisation's accuracy)."""
+        return self.grid.interpolate_state(self._support(self.states), self._tau(s))

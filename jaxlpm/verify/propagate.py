@@ -6,9 +6,10 @@ solution's nodes in the chief's true anomaly. It is packed into a fixed-size, ze
 
 Integrator: diffrax Dopri8 (8th-order Dormand-Prince, adaptive, PID step control) at
 rtol = atol = 1e-12 (states scaled to O(1) internally). Models: (a) linearised elliptic LVLH
-equations in time; (b) nonlinear two-body chief and deputy, differenced in the chief's LVLH
-frame. The chief's true anomaly is integrated beside the state (f_dot = |h| / r^2), so no
-Kepler solve sits inside the right-hand side.
+equations in time; (b) nonlinear two-body (+ J2) chief and deputy, differenced in the chief's
+LVLH frame. The chief's anomaly is integrated beside the state (d/dt = |h| / r^2: the true
+anomaly of a Keplerian chief, the regularised anomaly of a J2 one), so no Kepler solve sits
+inside the right-hand side.
 """
 
 from dataclasses import dataclass
@@ -18,7 +19,9 @@ import jax
 import jax.numpy as jnp
 
 from ..collocation import barycentric_interpolate
-from ..dynamics import elliptic_lvlh_rhs, relative_two_body_rhs
+from ..constants import R_EARTH
+from ..dynamics import elliptic_lvlh_rhs, gravity_acceleration, relative_inertial_rhs
+from ..dynamics.chief import anomaly_rate
 from ..orbits import elements_to_state, lvlh_to_relative_inertial, relative_inertial_to_lvlh
 
 PAD_TO = 129          # largest node count one compiled propagator serves
@@ -58,7 +61,7 @@ def control_interpolant(solution, pad_to: int = PAD_TO) -> ControlInterpolant:
     vals = jnp.pad(solution.node_controls, [(0, 0)] * len(lead) + [(0, pad), (0, 0)])
     tau = jnp.broadcast_to(padded(g.points, _FAR), lead + (pad_to,))
     bary = jnp.broadcast_to(padded(g.point_bary, 0.0), lead + (pad_to,))
-    return ControlInterpolant(tau, bary, vals, solution.node_f[..., 0], solution.node_f[..., -1])
+    return ControlInterpolant(tau, bary, vals, *solution.anomaly_interval())
 
 
 def _integrate(rhs, y0, scale, t1, ts):
@@ -94,21 +97,24 @@ def propagate_linear(orbit, x0, duration, control: ControlInterpolant, n_save: i
     return ts, ys[:, :6], ok
 
 
-def propagate_nonlinear(orbit, x0, duration, control: ControlInterpolant, n_save: int = 401):
-    """Fly u through nonlinear two-body motion: chief and deputy integrated inertially (the
-    deputy as its exact offset from the chief), differenced in the chief's LVLH frame.
+def propagate_nonlinear(orbit, x0, duration, control: ControlInterpolant, n_save: int = 401,
+                        j2=0.0, r_eq=R_EARTH):
+    """Fly u through nonlinear relative motion: chief and deputy integrated inertially (the
+    deputy as its exact offset from the chief) under two-body gravity, plus J2 on both when
+    j2 != 0, differenced in the chief's LVLH frame (for a J2 chief: its exact rotating frame).
+    The control's anomaly is the chief's regularised anomaly, d/dt = |h| / r^2 (the true
+    anomaly of a Keplerian chief). The chief starts on `orbit`'s state at its epoch.
 
     Returns (times (n_save,), LVLH states (n_save, 6), ok).
     """
     mu = orbit.mu
     rc, vc = elements_to_state(orbit)
-    dr, dv = lvlh_to_relative_inertial(rc, vc, x0)
+    a_chief = gravity_acceleration(rc, mu, j2, r_eq)
+    dr, dv = lvlh_to_relative_inertial(rc, vc, x0, a_chief)
 
     def rhs(t, y):
-        s = y[:12]
-        r = s[:3]
-        fdot = jnp.linalg.norm(jnp.cross(r, s[3:6])) / jnp.dot(r, r)
-        return jnp.concatenate([relative_two_body_rhs(s, control(y[12]), mu), fdot[None]])
+        rate = relative_inertial_rhs(y[:12], control(y[12]), mu, j2, r_eq)
+        return jnp.concatenate([rate, anomaly_rate(y[:6])[None]])
 
     y0 = jnp.concatenate([rc, vc, dr, dv, jnp.atleast_1d(orbit.f0 + 0.0 * orbit.e)])
     rel = _state_scale(x0, orbit)
@@ -116,8 +122,12 @@ def propagate_nonlinear(orbit, x0, duration, control: ControlInterpolant, n_save
                              rel, jnp.ones(1)])
     ts = _save_times(duration, n_save)
     ys, ok = _integrate(rhs, y0, scale, duration, ts)
-    lvlh = jax.vmap(lambda y: relative_inertial_to_lvlh(y[:3], y[3:6], y[6:9], y[9:12]))(ys)
-    return ts, lvlh, ok
+
+    def to_lvlh(y):
+        acc = gravity_acceleration(y[:3], mu, j2, r_eq)
+        return relative_inertial_to_lvlh(y[:3], y[3:6], y[6:9], y[9:12], acc)
+
+    return ts, jax.vmap(to_lvlh)(ys), ok
 
 
 def _state_scale(x0, orbit):

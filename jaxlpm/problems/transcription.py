@@ -1,0 +1,251 @@
+"""Pseudospectral transcription of an `OptimalControlProblem` into NLP functions of one vector.
+
+Decision vector z = [X (state rows, n_x each), U (collocation points, n_u each), (sf)].
+State rows by scheme (tau in [-1, 1], s = s0 + h (tau + 1), h = (sf - s0) / 2):
+  LGL  the N + 1 LGL points, all collocated (Fahroo & Ross 2001; Mei 2010 eq. 12)
+  LG   [-1, K Gauss points, +1]; the state polynomial lives on [-1, Gauss points] and the final
+       state is tied to it by Gauss quadrature, X_f = X_0 + h sum_k w_k F_k (Benson et al. 2006)
+  LGR  [K Radau points (-1 included), +1], the final point not collocated (Garg et al. 2010)
+Equality constraints: defects D X - h F(X_c, U) at the collocation points (n, n_x), for LG the
+quadrature row, then the boundary residuals b(x0, xf, sf). Cost: h sum_i w_i L_i + phi.
+
+Costate estimates (Garg et al. 2010, Benson et al. 2006): with the Lagrangian J + Lambda^T c,
+lambda(tau_i) = -Lambda_i / w_i at the collocation points (LG: -(Lambda_i / w_i + Lambda_F),
+Lambda_F the quadrature row's multiplier). They converge for LG and LGR; LGL's do not converge
+at every node (Fahroo & Ross 2001 need a closure condition at the end points).
+"""
+
+import jax
+import jax.numpy as jnp
+
+from .ocp import OptimalControlProblem
+
+
+def n_state_rows(grid) -> int:
+    """Number of state rows in z for the grid's scheme."""
+    return grid.n + {"LGL": 0, "LG": 2, "LGR": 1}[grid.scheme]
+
+
+def state_tau(grid):
+    """tau of the state rows: LGL points; LG [-1, points, 1]; LGR [points, 1]."""
+    one = jnp.ones(1, grid.points.dtype)
+    if grid.scheme == "LGL":
+        return grid.points
+    if grid.scheme == "LG":
+        return jnp.concatenate([-one, grid.points, one])
+    return jnp.concatenate([grid.points, one])
+
+
+def collocated_rows(grid):
+    """Slice of the state rows at the collocation points."""
+    return {"LGL": slice(None), "LG": slice(1, -1), "LGR": slice(None, -1)}[grid.scheme]
+
+
+def _support_rows(grid):
+    """Slice of the state rows on which the state polynomial (and D) is defined."""
+    return {"LGL": slice(None), "LG": slice(None, -1), "LGR": slice(None)}[grid.scheme]
+
+
+def n_variables(ocp: OptimalControlProblem, grid) -> int:
+    return n_state_rows(grid) * ocp.n_x + grid.n * ocp.n_u + int(ocp.free_final)
+
+
+def pack(X, U, sf, ocp: OptimalControlProblem):
+    """z from state rows X (n_rows, n_x), controls U (n, n_u) and sf (used if free_final)."""
+    parts = [X.reshape(-1), U.reshape(-1)]
+    if ocp.free_final:
+        parts.append(jnp.reshape(sf, (1,)))
+    return jnp.concatenate(parts)
+
+
+def unpack(z, ocp: OptimalControlProblem, grid):
+    """(X (n_rows, n_x), U (n, n_u), sf) from z."""
+    nx = n_state_rows(grid) * ocp.n_x
+    nu = grid.n * ocp.n_u
+    X = z[:nx].reshape(-1, ocp.n_x)
+    U = z[nx:nx + nu].reshape(grid.n, ocp.n_u)
+    sf = z[nx + nu] if ocp.free_final else ocp.sf
+    return X, U, sf
+
+
+def collocation_s(ocp: OptimalControlProblem, grid, sf=None):
+    """Independent variable at the collocation points."""
+    sf = ocp.sf if sf is None else sf
+    return ocp.s0 + 0.5 * (sf - ocp.s0) * (grid.points + 1.0)
+
+
+def _pointwise(fun, ocp, grid, X, U, sf):
+    """fun(s_i, x_i, u_i, data_i, params) at every collocation point."""
+    s = collocation_s(ocp, grid, sf)
+    Xc = X[collocated_rows(grid)]
+    data_axis = None if ocp.node_data is None else 0
+    return jax.vmap(fun, in_axes=(0, 0, 0, data_axis, None))(s, Xc, U, ocp.node_data, ocp.params)
+
+
+def objective(z, ocp: OptimalControlProblem, grid):
+    """J = h sum_i w_i L(s_i, x_i, u_i) + phi(x0, xf, sf)."""
+    X, U, sf = unpack(z, ocp, grid)
+    h = 0.5 * (sf - ocp.s0)
+    J = h * jnp.dot(grid.weights, _pointwise(ocp.running_cost, ocp, grid, X, U, sf))
+    if ocp.terminal_cost is not None:
+        J = J + ocp.terminal_cost(X[0], X[-1], sf, ocp.params)
+    return J
+
+
+def defects(z, ocp: OptimalControlProblem, grid):
+    """Collocation defects D X - h F (n, n_x) and, for LG, the quadrature row (1, n_x)."""
+    X, U, sf = unpack(z, ocp, grid)
+    h = 0.5 * (sf - ocp.s0)
+    F = _pointwise(ocp.dynamics, ocp, grid, X, U, sf)
+    rows = grid.D @ X[_support_rows(grid)] - h * F
+    if grid.scheme == "LG":
+        quad = X[-1] - X[0] - h * (grid.weights @ F)
+        rows = jnp.concatenate([rows, quad[None]])
+    return rows
+
+
+def equality(z, ocp: OptimalControlProblem, grid):
+    """All equality constraints c(z) = 0: defects (row-major) then boundary residuals."""
+    X, _, sf = unpack(z, ocp, grid)
+    bc = jnp.atleast_1d(ocp.boundary(X[0], X[-1], sf, ocp.params))
+    return jnp.concatenate([defects(z, ocp, grid).reshape(-1), bc])
+
+
+def inequality(z, ocp: OptimalControlProblem, grid):
+    """Path constraints g(z) <= 0 at every collocation point, flattened (empty if none)."""
+    if ocp.path is None:
+        return jnp.zeros(0, z.dtype)
+    X, U, sf = unpack(z, ocp, grid)
+    return _pointwise(ocp.path, ocp, grid, X, U, sf).reshape(-1)
+
+
+def n_boundary(ocp: OptimalControlProblem, grid) -> int:
+    """Number of boundary residuals b(x0, xf, sf)."""
+    x = jax.ShapeDtypeStruct((ocp.n_x,), jnp.float64)
+    return jax.eval_shape(lambda a, b: jnp.atleast_1d(ocp.boundary(a, b, ocp.sf, ocp.params)),
+                          x, x).shape[0]
+
+
+def _point_indices(ocp, grid):
+    """(n, n_x + n_u) positions in z of each collocation point's (x_i, u_i)."""
+    first = {"LGL": 0, "LG": 1, "LGR": 0}[grid.scheme]
+    points = jnp.arange(grid.n)
+    xi = (points + first)[:, None] * ocp.n_x + jnp.arange(ocp.n_x)[None]
+    ui = (n_state_rows(grid) * ocp.n_x + points[:, None] * ocp.n_u
+          + jnp.arange(ocp.n_u)[None])
+    return jnp.concatenate([xi, ui], axis=1)
+
+
+def _end_indices(ocp, grid):
+    """Positions in z of x0 then xf."""
+    last = n_state_rows(grid) - 1
+    return jnp.concatenate([jnp.arange(ocp.n_x), last * ocp.n_x + jnp.arange(ocp.n_x)])
+
+
+def _pointwise_jacobian(ocp, grid, X, U, sf):
+    """dF/d(x, u) at every collocation point, (n, n_x, n_x + n_u)."""
+    s = collocation_s(ocp, grid, sf)
+    Xc = X[collocated_rows(grid)]
+    data_axis = None if ocp.node_data is None else 0
+
+    def jac(si, x, u, d):
+        return jax.jacfwd(lambda v: ocp.dynamics(si, v[:ocp.n_x], v[ocp.n_x:], d, ocp.params))(
+            jnp.concatenate([x, u]))
+
+    return jax.vmap(jac, in_axes=(0, 0, 0, data_axis))(s, Xc, U, ocp.node_data)
+
+
+def equality_jacobian(z, ocp: OptimalControlProblem, grid):
+    """dc/dz assembled from the collocation structure: kron(D, I) on the state polynomial,
+    -h dF/d(x_i, u_i) blocks at each point, the LG quadrature row, the boundary rows on
+    (x0, xf), and (free final s) the dense sf column from one forward-mode derivative."""
+    X, U, sf = unpack(z, ocp, grid)
+    n_x, n = ocp.n_x, z.size
+    h = 0.5 * (sf - ocp.s0)
+    J = -h * _pointwise_jacobian(ocp, grid, X, U, sf)               # (n_pts, n_x, n_x + n_u)
+    idx = _point_indices(ocp, grid)
+    n_def = grid.n * n_x
+    rows_i = jnp.arange(n_def).reshape(grid.n, n_x)
+    A = jnp.zeros((n_def, n), z.dtype)
+    support = _support_rows(grid)
+    n_support = X[support].shape[0]
+    A = A.at[:, :n_support * n_x].set(jnp.kron(grid.D, jnp.eye(n_x, dtype=z.dtype)))
+    A = A.at[rows_i[:, :, None], idx[:, None, :]].add(J)
+    blocks = [A]
+    if grid.scheme == "LG":
+        Q = jnp.zeros((n_x, n), z.dtype)
+        Q = Q.at[:, idx.reshape(-1)].add(
+            jnp.transpose(grid.weights[:, None, None] * J, (1, 0, 2)).reshape(n_x, -1))
+        eye = jnp.eye(n_x, dtype=z.dtype)
+        last = (n_state_rows(grid) - 1) * n_x
+        Q = Q.at[:, :n_x].add(-eye).at[:, last:last + n_x].add(eye)
+        blocks.append(Q)
+    ends = _end_indices(ocp, grid)
+    Jb = jax.jacfwd(lambda v: jnp.atleast_1d(ocp.boundary(v[:n_x], v[n_x:], sf, ocp.params)))(
+        z[ends])
+    blocks.append(jnp.zeros((Jb.shape[0], n), z.dtype).at[:, ends].set(Jb))
+    A = jnp.concatenate(blocks)
+    if ocp.free_final:
+        e_sf = jnp.zeros(n, z.dtype).at[-1].set(1.0)
+        col = jax.jvp(lambda v: equality(v, ocp, grid), (z,), (e_sf,))[1]
+        A = A.at[:, -1].set(col)
+    return A
+
+
+def lagrangian(z, multipliers, ocp: OptimalControlProblem, grid):
+    """f(z) + multipliers . c(z)."""
+    return objective(z, ocp, grid) + jnp.dot(multipliers, equality(z, ocp, grid))
+
+
+def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
+    """Hessian of `lagrangian` in z from its separable pieces: per collocation point the block
+    of h w_i L(x_i, u_i) - h mu_i . F(x_i, u_i) (mu_i = Lambda_i; LG: + w_i Lambda_F), the
+    (x0, xf) block of the boundary and terminal terms, and with a free final s the dense sf
+    row and column (one forward-over-reverse derivative). D X is linear: no contribution."""
+    X, U, sf = unpack(z, ocp, grid)
+    n_x, n = ocp.n_x, z.size
+    h = 0.5 * (sf - ocp.s0)
+    n_def = grid.n * n_x
+    mu = multipliers[:n_def].reshape(grid.n, n_x)
+    if grid.scheme == "LG":
+        mu = mu + grid.weights[:, None] * multipliers[n_def:n_def + n_x][None]
+    nu = multipliers[multipliers.size - n_boundary(ocp, grid):]
+    s = collocation_s(ocp, grid, sf)
+    data_axis = None if ocp.node_data is None else 0
+
+    def point_block(si, x, u, d, mui, wi):
+        def ell(v):
+            xv, uv = v[:n_x], v[n_x:]
+            return h * (wi * ocp.running_cost(si, xv, uv, d, ocp.params)
+                        - mui @ ocp.dynamics(si, xv, uv, d, ocp.params))
+        return jax.hessian(ell)(jnp.concatenate([x, u]))
+
+    blocks = jax.vmap(point_block, in_axes=(0, 0, 0, data_axis, 0, 0))(
+        s, X[collocated_rows(grid)], U, ocp.node_data, mu, grid.weights)
+    idx = _point_indices(ocp, grid)
+    H = jnp.zeros((n, n), z.dtype).at[idx[:, :, None], idx[:, None, :]].add(blocks)
+
+    def end_terms(v):
+        val = jnp.dot(nu, jnp.atleast_1d(ocp.boundary(v[:n_x], v[n_x:], sf, ocp.params)))
+        if ocp.terminal_cost is not None:
+            val = val + ocp.terminal_cost(v[:n_x], v[n_x:], sf, ocp.params)
+        return val
+
+    ends = _end_indices(ocp, grid)
+    H = H.at[ends[:, None], ends[None, :]].add(jax.hessian(end_terms)(z[ends]))
+    if ocp.free_final:
+        e_sf = jnp.zeros(n, z.dtype).at[-1].set(1.0)
+        col = jax.jvp(lambda v: jax.grad(lagrangian)(v, multipliers, ocp, grid), (z,), (e_sf,))[1]
+        H = H.at[:, -1].set(col).at[-1, :].set(col)
+    return H
+
+
+def costates(multipliers, ocp: OptimalControlProblem, grid):
+    """Costate estimates lambda(s_i) (n, n_x) at the collocation points from the equality
+    multipliers (see the module docstring); in the problem's units, per unit s."""
+    n_def = grid.n * ocp.n_x
+    Lam = multipliers[:n_def].reshape(grid.n, ocp.n_x)
+    lam = -Lam / grid.weights[:, None]
+    if grid.scheme == "LG":
+        lam = lam - multipliers[n_def:n_def + ocp.n_x][None]
+    return lam

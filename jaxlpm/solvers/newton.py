@@ -1,0 +1,246 @@
+"""Newton-KKT (SQP) solver for a transcribed `OptimalControlProblem` with equality constraints.
+
+Each iteration solves the Newton system of the KKT conditions of min f(z) s.t. c(z) = 0
+(Nocedal & Wright 2006, Alg. 18.3, with exact second derivatives):
+
+    [ H + dw I   A^T   ] [ p      ]     [ grad f ]
+    [ A         -dc I  ] [ lambda+ ] = - [ c      ],   H = hess_z (f + lambda^T c),  A = dc/dz
+
+H and A come from JAX autodiff, assembled from the collocation structure by
+`jaxlpm.problems.transcription` (per-point blocks: the dynamics and running cost couple only
+x_i and u_i, D X is linear). Regularisation (inertia correction as in IPOPT, Waechter &
+Biegler 2006 §3.1): dw = dc = 0 first; if the solve is not finite, the sign of det K shows
+the wrong inertia (see `_kkt_step`), or the step has negative curvature p^T (H + dw I) p < 0,
+retry with dw = max(1e-8 scale, dw_last / 4), then 10x per retry, and dc = 1e-12.
+Globalisation: the l1 merit f + mu |c|_1 with Armijo backtracking (mu >= 1.5 |lambda+|_inf); a full step is also accepted when it halves the KKT
+residual (a watchdog against the Maratos effect). Iterations run in one `lax.while_loop` with a
+static maximum; the result carries a `Status`, residuals, the residual history and the
+multipliers. Solutions are differentiated by the implicit function theorem on the KKT
+conditions (`jaxlpm.implicit.root`), never through the iterations.
+"""
+
+import functools
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+
+from ..implicit import root
+from ..problems.transcription import (equality, equality_jacobian, lagrangian,
+                                      lagrangian_hessian, n_variables, objective)
+from ..status import Status
+
+_RUNNING = -1
+
+
+@dataclass(frozen=True)
+class NewtonOptions:
+    """Static solver settings (hashable: one compiled solver per distinct set).
+
+    tol_feasibility   max |c| at convergence (problem units: the builders make states O(1))
+    tol_optimality    max |grad f + A^T lambda| at convergence
+    """
+
+    max_iterations: int = 40
+    tol_feasibility: float = 1e-10
+    tol_optimality: float = 1e-10
+    max_backtracks: int = 30
+    max_regularisations: int = 6
+    armijo: float = 1e-4
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class NLPResult:
+    """Outcome of `newton_kkt`.
+
+    z            decision vector (see `jaxlpm.problems.transcription`)
+    multipliers  lambda of the equality constraints (defects, then boundary)
+    status       `Status` code (int32)
+    iterations   Newton iterations taken
+    constraint_residual, stationarity_residual   max |c|, max |grad_z L| at z
+    history      KKT residual max(|c|, |grad L|) at the start of each iteration (zeros after)
+    regularisation  largest dw used
+    """
+
+    z: jax.Array
+    multipliers: jax.Array
+    status: jax.Array
+    iterations: jax.Array
+    constraint_residual: jax.Array
+    stationarity_residual: jax.Array
+    history: jax.Array
+    regularisation: jax.Array
+
+
+def kkt_residual(w, ocp, grid):
+    """[grad_z L(z, lambda); c(z)] for w = [z, lambda]: zero at a KKT point."""
+    n = n_variables(ocp, grid)
+    z, lam = w[:n], w[n:]
+    return jnp.concatenate([jax.grad(lagrangian)(z, lam, ocp, grid), equality(z, ocp, grid)])
+
+
+def _kkt_step(H, A, g, c, dw, dc):
+    """Solve the regularised Newton-KKT system by one LU factorisation; also report whether
+    its inertia can be right: K symmetric with n positive and m negative eigenvalues has
+    sign(det K) = (-1)^m, read off the LU factors (pivot signs and row swaps). An odd number
+    of wrong eigenvalues (a reduced Hessian with one negative curvature) fails this test."""
+    n, m = H.shape[0], A.shape[0]
+    K = jnp.block([[H + dw * jnp.eye(n, dtype=H.dtype), A.T],
+                   [A, -dc * jnp.eye(m, dtype=H.dtype)]])
+    lu, piv = jax.scipy.linalg.lu_factor(K)
+    sol = jax.scipy.linalg.lu_solve((lu, piv), -jnp.concatenate([g, c]))
+    flips = jnp.sum(jnp.diagonal(lu) < 0) + jnp.sum(piv != jnp.arange(n + m))
+    inertia_ok = (flips % 2) == (m % 2)
+    return sol[:n], sol[n:], inertia_ok
+
+
+def _least_squares_multipliers(z, ocp, grid):
+    """lambda0 = argmin |grad f + A^T lambda|: the usual first multiplier estimate (IPOPT's
+    default; Nocedal & Wright eq. 18.21), so the first Hessian sees the constraints' curvature."""
+    g = jax.grad(objective)(z, ocp, grid)
+    A = equality_jacobian(z, ocp, grid)
+    return -jax.scipy.linalg.solve(A @ A.T, A @ g, assume_a="pos")
+
+
+def newton_step(ocp, grid, z):
+    """One full Newton-KKT step from z with zero multipliers: the exact solution when the
+    problem is a QP (linear dynamics, quadratic cost), e.g. the linear transfer's KKT law.
+    Returns (z + p, multipliers)."""
+    lam = jnp.zeros(equality(z, ocp, grid).shape, z.dtype)
+    g = jax.grad(objective)(z, ocp, grid)
+    p, lam_new, _ = _kkt_step(lagrangian_hessian(z, lam, ocp, grid),
+                              equality_jacobian(z, ocp, grid), g, equality(z, ocp, grid),
+                              0.0, 0.0)
+    return z + p, lam_new
+
+
+def _newton_loop(w0, ocp, grid, options: NewtonOptions):
+    n = n_variables(ocp, grid)
+    z0, lam0 = w0[:n], w0[n:]
+    f = functools.partial(objective, ocp=ocp, grid=grid)
+    c_fun = functools.partial(equality, ocp=ocp, grid=grid)
+    opts = options
+
+    def merit(z, mu):
+        return f(z) + mu * jnp.sum(jnp.abs(c_fun(z)))
+
+    def residuals(z, lam):
+        g, c = jax.grad(f)(z), c_fun(z)
+        A = equality_jacobian(z, ocp, grid)
+        gl = g + A.T @ lam
+        return g, c, A, jnp.max(jnp.abs(c)), jnp.max(jnp.abs(gl))
+
+    def regularised_step(H, A, g, c, dw_last):
+        """dw = 0 first; on a non-finite solve, the wrong inertia sign or negative curvature
+        along the step, retry with dw = max(1e-8 scale, dw_last / 4), then x10 (IPOPT-like)."""
+        scale = 1.0 + jnp.max(jnp.abs(jnp.diag(H)))
+
+        def bad(p, lam_new, dw, inertia_ok):
+            curvature = p @ (H @ p) + dw * (p @ p)
+            finite = jnp.all(jnp.isfinite(p)) & jnp.all(jnp.isfinite(lam_new))
+            return ~finite | ~inertia_ok | (curvature < 0.0)
+
+        def cond(s):
+            p, lam_new, dw, inertia_ok, k = s
+            return (k == 0) | (bad(p, lam_new, dw, inertia_ok) & (k <= opts.max_regularisations))
+
+        def body(s):
+            _, _, dw, _, k = s
+            first = jnp.maximum(1e-8 * scale, 0.25 * dw_last)
+            dw = jnp.where(k == 0, 0.0, jnp.where(k == 1, first, 10.0 * dw))
+            p, lam_new, inertia_ok = _kkt_step(H, A, g, c, dw, jnp.where(k == 0, 0.0, 1e-12))
+            return p, lam_new, dw, inertia_ok, k + 1
+
+        nan = jnp.full(g.shape, jnp.nan, g.dtype)
+        p, lam_new, dw, inertia_ok, _ = jax.lax.while_loop(
+            cond, body, (nan, jnp.full(c.shape, jnp.nan, c.dtype), jnp.zeros((), g.dtype),
+                         jnp.array(False), 0))
+        return p, lam_new, dw, ~bad(p, lam_new, dw, inertia_ok)
+
+    def body(s):
+        z, lam, mu, k, hist, reg, dw_last, status = s
+        g, c, A, feas, opt = residuals(z, lam)
+        kkt = jnp.maximum(feas, opt)
+        hist = hist.at[k].set(kkt)
+        converged = (feas <= opts.tol_feasibility) & (opt <= opts.tol_optimality)
+        def step(_):
+            return regularised_step(lagrangian_hessian(z, lam, ocp, grid), A, g, c, dw_last)
+
+        def skip(_):          # converged: no factorisation (unbatched; vmap runs both)
+            return jnp.zeros_like(z), lam, jnp.zeros((), z.dtype), jnp.array(True)
+
+        p, lam_new, dw, ok = jax.lax.cond(converged, skip, step, None)
+        mu = jnp.maximum(mu, 1.5 * jnp.max(jnp.abs(lam_new)) + 1e-12)
+        phi0 = merit(z, mu)
+        slope = g @ p - mu * jnp.sum(jnp.abs(c))
+
+        def trial(alpha):
+            zt = z + alpha * p
+            return merit(zt, mu), zt
+
+        # full step accepted outright if it halves the KKT residual (watchdog)
+        watchdog = jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + p, lam_new]), ocp, grid))
+                           ) <= 0.5 * kkt
+
+        def ls_cond(t):
+            alpha, phi, j = t
+            return (phi > phi0 + opts.armijo * alpha * slope) & (j < opts.max_backtracks)
+
+        def ls_body(t):
+            alpha, _, j = t
+            alpha = 0.5 * alpha
+            return alpha, trial(alpha)[0], j + 1
+
+        alpha, phi, j = jax.lax.while_loop(ls_cond, ls_body, (1.0, trial(1.0)[0], 0))
+        armijo_ok = phi <= phi0 + opts.armijo * alpha * slope
+        alpha = jnp.where(watchdog, 1.0, alpha)
+        moved = ok & (watchdog | armijo_ok) & ~converged
+        z_next = jnp.where(moved, z + alpha * p, z)
+        lam_next = jnp.where(moved, lam + alpha * (lam_new - lam), lam)
+        finite = jnp.all(jnp.isfinite(z_next)) & jnp.all(jnp.isfinite(lam_next))
+        status = jnp.select(
+            [converged, ~finite, ~ok, ~(watchdog | armijo_ok), k + 1 >= opts.max_iterations],
+            [Status.SUCCESS, Status.NONFINITE, Status.SINGULAR, Status.STALLED,
+             Status.MAX_ITERATIONS], _RUNNING).astype(jnp.int32)
+        k_next = jnp.where(converged, k, k + 1)
+        return z_next, lam_next, mu, k_next, hist, jnp.maximum(reg, dw), dw, status
+
+    hist0 = jnp.zeros(opts.max_iterations + 1, z0.dtype)
+    zero = jnp.zeros((), z0.dtype)
+    state = (z0, lam0, zero, 0, hist0, zero, zero, jnp.asarray(_RUNNING, jnp.int32))
+    z, lam, _, k, hist, reg, _, status = jax.lax.while_loop(
+        lambda s: s[-1] == _RUNNING, body, state)
+    return jnp.concatenate([z, lam]), (status, k, hist, reg)
+
+
+@functools.lru_cache(maxsize=None)
+def _solver(options: NewtonOptions):
+    @root(kkt_residual, has_aux=True, zero_nonfinite=True)
+    def solve(w0, ocp, grid):
+        return _newton_loop(w0, ocp, grid, options)
+    return solve
+
+
+def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = NewtonOptions()):
+    """Solve the transcribed problem from the initial guess z0 (and multipliers).
+
+    Returns an `NLPResult`; z and the multipliers are differentiable with respect to the
+    problem's array leaves (params, node_data, s0, sf) by the implicit function theorem.
+    Path constraints are not handled here (the augmented-Lagrangian solver does them).
+    """
+    if ocp.path is not None:
+        raise ValueError("newton_kkt handles equality constraints only; this problem has path "
+                         "constraints (use the augmented-Lagrangian solver)")
+    n = n_variables(ocp, grid)
+    m = jax.eval_shape(lambda: equality(jnp.zeros(n), ocp, grid)).shape[0]
+    if z0.shape != (n,):
+        raise ValueError(f"z0 must have shape ({n},) for this problem and grid, got {z0.shape}")
+    lam0 = _least_squares_multipliers(z0, ocp, grid) if multipliers0 is None else multipliers0
+    w, (status, k, hist, reg) = _solver(options)(jnp.concatenate([z0, lam0]), ocp, grid)
+    z, lam = w[:n], w[n:]
+    res = kkt_residual(jax.lax.stop_gradient(w), ocp, grid)
+    return NLPResult(z=z, multipliers=lam, status=status, iterations=k,
+                     constraint_residual=jnp.max(jnp.abs(res[n:])),
+                     stationarity_residual=jnp.max(jnp.abs(res[:n])),
+                     history=hist, regularisation=reg)

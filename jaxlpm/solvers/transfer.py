@@ -1,0 +1,79 @@
+"""Energy-optimal transfers on any model and grid by the Newton-KKT solver.
+
+The transfer is written as an `OptimalControlProblem` in the chief's anomaly
+(`jaxlpm.problems.relative`), warm-started from the linear model's KKT solution on the same
+grid (Mei 2010 §3.2's law, one Newton step of its QP), and solved by `newton_kkt`. Outputs are
+in SI (LVLH, m, m/s, m/s^2); gradients with respect to the problem's array leaves (e, a,
+duration, boundary states, J2) come from the implicit function theorem at the KKT point.
+"""
+
+import jax
+import jax.numpy as jnp
+
+from ..problems.relative import (control_scale, cost_scale, lvlh_state, model_state,
+                                 transfer_ocp)
+from ..problems.transcription import (collocated_rows, collocation_s, costates, objective,
+                                      pack, state_tau, unpack)
+from ..status import Status
+from .newton import NewtonOptions, newton_kkt, newton_step
+from .solution import TransferSolution
+
+
+def _warm_start(problem, ocp, grid):
+    """z0 from the linear model's KKT solution on the same grid (Mei 2010 §3.2's law: for a
+    QP one Newton-KKT step is exact), mapped node by node (same tau) to the model's state."""
+    linear = problem.replace(model="linear")
+    ocp_lin, _, _ = transfer_ocp(linear, grid)
+    n_rows = state_tau(grid).shape[0]
+    zero = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp_lin.sf, ocp_lin)
+    z_lin, _ = newton_step(ocp_lin, grid, zero)
+    X_th, U, _ = unpack(z_lin, ocp_lin, grid)
+    s_lin = _state_s(ocp_lin, grid)
+    X_lvlh = jax.vmap(lambda x, s: lvlh_state(linear, x, s))(X_th, s_lin)
+    X = jax.vmap(lambda x, s: model_state(problem, x, s))(X_lvlh, _state_s(ocp, grid))
+    return pack(X, U * control_scale(linear) / control_scale(problem), ocp.sf, ocp)
+
+
+def _state_s(ocp, grid):
+    return ocp.s0 + 0.5 * (ocp.sf - ocp.s0) * (state_tau(grid) + 1.0)
+
+
+def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
+                    warm_start: bool = True) -> TransferSolution:
+    """Solve `problem` (any model) on `grid` (any scheme) by Newton-KKT.
+
+    warm_start=False starts from zero states and controls (the linear model then converges
+    in one Newton step: it is a QP). Traced invalid inputs give status INVALID_INPUT with
+    zeroed outputs; a failed chief integration (model "j2") gives NONFINITE.
+    """
+    valid = problem.validity()
+    problem = problem.sanitized(valid)
+    ocp, chief, ok = transfer_ocp(problem, grid)
+    state_s = _state_s(ocp, grid)
+    if warm_start:
+        z0 = _warm_start(problem, ocp, grid)
+    else:
+        n_rows = state_tau(grid).shape[0]
+        z0 = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp.sf, ocp)
+    result = newton_kkt(ocp, grid, z0, options=options)
+    X, U, _ = unpack(result.z, ocp, grid)
+    states = jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, state_s)
+    status = jnp.where(valid, jnp.where(ok, result.status, Status.NONFINITE),
+                       Status.INVALID_INPUT).astype(jnp.int32)
+    cost = cost_scale(problem) * objective(result.z, ocp, grid)
+
+    def keep(x):
+        return jnp.where(valid, x, jnp.zeros_like(x))
+
+    node_times = chief.t[collocated_rows(grid)]
+    return TransferSolution(
+        problem=problem, grid=grid, s0=ocp.s0, sf=ocp.sf,
+        node_s=collocation_s(ocp, grid), node_times=node_times,
+        node_controls=keep(U * control_scale(problem)),
+        state_s=state_s, state_times=chief.t, states=keep(states),
+        cost=keep(cost), cost_true_anomaly=keep(problem.orbit.k2 * cost),
+        costates=keep(costates(result.multipliers, ocp, grid)),
+        multipliers=keep(result.multipliers),
+        constraint_residual=keep(result.constraint_residual),
+        stationarity_residual=keep(result.stationarity_residual),
+        iterations=result.iterations, history=keep(result.history), status=status)
