@@ -203,7 +203,7 @@ def test_bad_grid_method_and_float32():
     with pytest.raises(ValueError, match="LGL"):
         solve(prob, lg(10), "kkt")
     with pytest.raises(ValueError, match="method"):
-        solve(prob, lgl(9), "newton")
+        solve(prob, lgl(9), "shooting")
     jax.config.update("jax_enable_x64", False)
     try:
         with pytest.raises(ValueError, match="float64"):

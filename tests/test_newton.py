@@ -20,6 +20,16 @@ from jaxlpm.problems import OptimalControlProblem
 from jaxlpm.problems import transcription as tr
 from jaxlpm.solvers import newton_kkt, newton_transfer
 
+# XLA's backend optimisation is most of these solvers' compile time and buys little for
+# functions run a few times: compile the tests' solves without it (as the CLI's one-off solves).
+QUICK = {"xla_backend_optimization_level": 0}
+
+
+def quick(fn, *args):
+    """fn(*args) through jit, compiled at backend optimisation level 0."""
+    return jax.jit(fn).lower(*args).compile(QUICK)(*args)
+
+
 # ---------------------------------------------------------------- a generic test problem
 
 
@@ -65,7 +75,8 @@ def hcw_solutions():
     out = {}
     for scheme in ("LGL", "LG", "LGR"):
         grid = lpm.make_grid(scheme, 16)
-        res = newton_kkt(ocp, grid, jnp.zeros(tr.n_variables(ocp, grid)))
+        res = quick(lambda o, z: newton_kkt(o, grid, z), ocp,
+                    jnp.zeros(tr.n_variables(ocp, grid)))
         out[scheme] = (grid, res)
     return ocp, out
 
@@ -165,7 +176,7 @@ def test_free_final_time_double_integrator():
     t = 0.75 * (tr.state_tau(grid) + 1.0)
     X0 = jnp.stack([1.0 - t / 1.5, jnp.full_like(t, -1.0 / 1.5)], axis=1)
     z0 = tr.pack(X0, jnp.zeros((6, 1)), 1.5, ocp)
-    res = newton_kkt(ocp, grid, z0)
+    res = quick(lambda z: newton_kkt(ocp, grid, z), z0)
     _, _, sf = tr.unpack(res.z, ocp, grid)
     assert int(res.status) == Status.SUCCESS
     assert abs(float(sf) - 1.0) < 1e-10
@@ -200,9 +211,9 @@ N_SMALL = 17
 def batch_two_body():
     """mei2010 on the two-body model at e = 0.3 and an invalid e = 1.5, in one vmapped call."""
     prob = mei2010.problem().replace(model="two-body")
-    solve = jax.jit(jax.vmap(lambda e: newton_transfer(
-        prob.replace(orbit=prob.orbit.replace(e=e)), lpm.lgl(N_SMALL))))
-    return solve(jnp.array([0.3, 1.5]))
+    solve = jax.vmap(lambda e: newton_transfer(
+        prob.replace(orbit=prob.orbit.replace(e=e)), lpm.lgl(N_SMALL)))
+    return quick(solve, jnp.array([0.3, 1.5]))
 
 
 def test_newton_reproduces_kkt_law_on_linear_model():
@@ -212,7 +223,7 @@ def test_newton_reproduces_kkt_law_on_linear_model():
     collocation system's condition number (~N^4 ~ 1e5 at N = 16): 1e-9 relative."""
     prob = mei2010.problem()
     grid = lpm.lgl(N_SMALL)
-    newton = jax.jit(newton_transfer, static_argnames="warm_start")(prob, grid, warm_start=False)
+    newton = quick(lambda p: newton_transfer(p, grid, warm_start=False), prob)
     law = lpm.solve(prob, grid, method="kkt")
     assert int(newton.status) == Status.SUCCESS and int(newton.iterations) == 1
     scale = np.max(np.abs(law.node_controls))
@@ -255,14 +266,15 @@ def test_gradients_match_finite_differences():
         return newton_transfer(p, grid).cost
 
     args = (prob.orbit.e, prob.duration, prob.x0, prob.j2)
-    grads = jax.jit(jax.grad(cost, argnums=(0, 1, 2, 3)))(*args)
-    f = jax.jit(cost)
+    value_and_grad = jax.jit(jax.value_and_grad(cost, argnums=(0, 1, 2, 3))).lower(
+        *args).compile(QUICK)                                          # one compile
+    _, grads = value_and_grad(*args)
 
     def central(k, h, index=None):
         def shifted(sign):
             a = list(args)
             a[k] = a[k] + sign * h if index is None else a[k].at[index].add(sign * h)
-            return f(*a)
+            return value_and_grad(*a)[0]
         return float((shifted(1.0) - shifted(-1.0)) / (2.0 * h))
 
     checks = [(grads[0], central(0, 1e-6)), (grads[1], central(1, 1.0)),

@@ -52,8 +52,8 @@ def problem() -> EnergyOptimalTransfer:
     return EnergyOptimalTransfer.from_revolutions(orbit, x0, jnp.zeros(6), 3.0)
 
 
-# The laws run once per grid here and take microseconds, so LLVM's backend optimisation is
-# skipped for them (it is most of their compile time); the propagators' long loops keep it.
+# The laws and the Newton-KKT transfers run once per grid here, so LLVM's backend optimisation
+# is skipped for them (it is most of their compile time); the propagators' long loops keep it.
 _QUICK = {"xla_backend_optimization_level": 0}
 
 
@@ -73,7 +73,7 @@ def _compile_all(prob, log):
     jobs = {"nonlinear": (jax.jit(_fly_nonlinear),                          # longest first
                           (prob.orbit, prob.x0, prob.duration, ci, prob.j2, prob.r_eq), None)}
     jobs.update({("newton", model): (jax.jit(newton_transfer),
-                                     (prob.replace(model=model), lgl(N_HEADLINE + 1)), None)
+                                     (prob.replace(model=model), lgl(N_HEADLINE + 1)), _QUICK)
                  for model in NONLINEAR_MODELS})
     jobs["linear"] = (jax.jit(propagate_linear), (prob.orbit, prob.x0, prob.duration, ci), None)
     jobs.update({(law, N): (jax.jit(LAWS[law]), (prob, lgl(N + 1)), _QUICK)

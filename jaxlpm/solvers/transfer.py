@@ -2,7 +2,8 @@
 
 The transfer is written as an `OptimalControlProblem` in the chief's anomaly
 (`jaxlpm.problems.relative`), warm-started from the linear model's KKT solution on the same
-grid (Mei 2010 §3.2's law, one Newton step of its QP), and solved by `newton_kkt`. Outputs are
+grid (Mei 2010 §3.2's law on LGL; one Newton step of the same QP on LG and LGR), and solved by
+`newton_kkt`. Outputs are
 in SI (LVLH, m, m/s, m/s^2); gradients with respect to the problem's array leaves (e, a,
 duration, boundary states, J2) come from the implicit function theorem at the KKT point.
 """
@@ -15,23 +16,30 @@ from ..problems.relative import (control_scale, cost_scale, lvlh_state, model_st
 from ..problems.transcription import (collocated_rows, collocation_s, costates, objective,
                                       pack, state_tau, unpack)
 from ..status import Status
+from .lq import kkt_law
 from .newton import NewtonOptions, newton_kkt, newton_step
 from .solution import TransferSolution
 
 
 def _warm_start(problem, ocp, grid):
-    """z0 from the linear model's KKT solution on the same grid (Mei 2010 §3.2's law: for a
-    QP one Newton-KKT step is exact), mapped node by node (same tau) to the model's state."""
+    """z0 from the linear model's KKT solution on the same grid, mapped node by node (same
+    tau) to the model's state. On LGL grids that is Mei 2010's KKT law itself (null-space QR,
+    milliseconds); on LG and LGR grids the linear transcription's QP, solved by one dense
+    Newton-KKT step."""
     linear = problem.replace(model="linear")
-    ocp_lin, _, _ = transfer_ocp(linear, grid)
-    n_rows = state_tau(grid).shape[0]
-    zero = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp_lin.sf, ocp_lin)
-    z_lin, _ = newton_step(ocp_lin, grid, zero)
-    X_th, U, _ = unpack(z_lin, ocp_lin, grid)
-    s_lin = _state_s(ocp_lin, grid)
-    X_lvlh = jax.vmap(lambda x, s: lvlh_state(linear, x, s))(X_th, s_lin)
+    if grid.scheme == "LGL":
+        law = kkt_law(linear, grid)
+        X_lvlh, U_si = law.node_states, law.node_controls
+    else:
+        ocp_lin, _, _ = transfer_ocp(linear, grid)
+        n_rows = state_tau(grid).shape[0]
+        zero = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp_lin.sf,
+                    ocp_lin)
+        X_th, U, _ = unpack(newton_step(ocp_lin, grid, zero)[0], ocp_lin, grid)
+        X_lvlh = jax.vmap(lambda x, s: lvlh_state(linear, x, s))(X_th, _state_s(ocp_lin, grid))
+        U_si = U * control_scale(linear)
     X = jax.vmap(lambda x, s: model_state(problem, x, s))(X_lvlh, _state_s(ocp, grid))
-    return pack(X, U * control_scale(linear) / control_scale(problem), ocp.sf, ocp)
+    return pack(X, U_si / control_scale(problem), ocp.sf, ocp)
 
 
 def _state_s(ocp, grid):
