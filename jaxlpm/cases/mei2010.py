@@ -215,7 +215,7 @@ def report(computed, log=print):
                      f"{e[0]:.1f} m, {e[1]:.3f} m/s"))
     for model, key in NONLINEAR_MODELS.items():
         t = c[key]
-        rows.append((f"J, Newton-KKT, {t['model']}", "-", f"{t['J']:.10e}"))
+        rows.append((f"J, Newton-KKT, {model} model", "-", f"{t['J']:.10e}"))
         e = t["terminal_error_nonlinear"]
         rows.append((f"terminal error of that transfer, {model}", "-",
                      f"{e[0]:.2e} m, {e[1]:.1e} m/s"))

@@ -12,15 +12,16 @@ x_i and u_i, D X is linear). Regularisation (inertia correction as in IPOPT, Wae
 Biegler 2006 §3.1): dw = dc = 0 first; if the solve is not finite, the sign of det K shows
 the wrong inertia (see `_kkt_step`), or the step has negative curvature p^T (H + dw I) p < 0,
 retry with dw = max(1e-8 scale, dw_last / 4), then 10x per retry, and dc = 1e-12.
-Globalisation: the l1 merit f + mu |c|_1 with Armijo backtracking (mu >= 1.5 |lambda+|_inf); a full step is also accepted when it halves the KKT
-residual (a watchdog against the Maratos effect). Iterations run in one `lax.while_loop` with a
-static maximum; the result carries a `Status`, residuals, the residual history and the
+Globalisation: the l1 merit f + mu |c|_1 (mu >= 1.5 |lambda+|_inf) with Armijo backtracking,
+after trying the full step and its second-order correction (against the Maratos effect); a
+full step is also accepted when it halves the KKT residual (a watchdog). First multipliers by
+least squares. Iterations run in one `lax.while_loop` with a static maximum; the result carries a `Status`, residuals, the residual history and the
 multipliers. Solutions are differentiated by the implicit function theorem on the KKT
 conditions (`jaxlpm.implicit.root`), never through the iterations.
 """
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
@@ -176,31 +177,40 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
         slope = g @ p - mu * jnp.sum(jnp.abs(c))
 
         def trial(alpha):
-            zt = z + alpha * p
-            return merit(zt, mu), zt
+            return merit(z + alpha * p, mu)
 
-        # full step accepted outright if it halves the KKT residual (watchdog)
-        watchdog = jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + p, lam_new]), ocp, grid))
-                           ) <= 0.5 * kkt
+        def sufficient(phi, alpha):
+            return phi <= phi0 + opts.armijo * alpha * slope
+
+        # second-order correction of the full step (Nocedal & Wright Alg. 18.3 / §15.5):
+        # p_soc = -A^T (A A^T)^-1 c(z + p) removes the constraints' curvature that makes the
+        # merit reject good Newton steps near a solution (the Maratos effect)
+        c_full = c_fun(z + p)
+        p_soc = p - A.T @ jax.scipy.linalg.solve(A @ A.T, c_full, assume_a="pos")
+        phi_full, phi_soc = trial(1.0), merit(z + p_soc, mu)
+        # a full step (plain or corrected) is also accepted if it halves the KKT residual
+        kkt_soc = jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + p_soc, lam_new]), ocp, grid)))
+        use_soc = ~sufficient(phi_full, 1.0) & (sufficient(phi_soc, 1.0) | (kkt_soc <= 0.5 * kkt))
 
         def ls_cond(t):
             alpha, phi, j = t
-            return (phi > phi0 + opts.armijo * alpha * slope) & (j < opts.max_backtracks)
+            return ~sufficient(phi, alpha) & ~use_soc & (j < opts.max_backtracks)
 
         def ls_body(t):
             alpha, _, j = t
             alpha = 0.5 * alpha
-            return alpha, trial(alpha)[0], j + 1
+            return alpha, trial(alpha), j + 1
 
-        alpha, phi, j = jax.lax.while_loop(ls_cond, ls_body, (1.0, trial(1.0)[0], 0))
-        armijo_ok = phi <= phi0 + opts.armijo * alpha * slope
-        alpha = jnp.where(watchdog, 1.0, alpha)
-        moved = ok & (watchdog | armijo_ok) & ~converged
-        z_next = jnp.where(moved, z + alpha * p, z)
+        alpha, phi, j = jax.lax.while_loop(ls_cond, ls_body, (1.0, phi_full, 0))
+        accepted = use_soc | sufficient(phi, alpha)
+        step_taken = jnp.where(use_soc, p_soc, alpha * p)
+        alpha = jnp.where(use_soc, 1.0, alpha)
+        moved = ok & accepted & ~converged
+        z_next = jnp.where(moved, z + step_taken, z)
         lam_next = jnp.where(moved, lam + alpha * (lam_new - lam), lam)
         finite = jnp.all(jnp.isfinite(z_next)) & jnp.all(jnp.isfinite(lam_next))
         status = jnp.select(
-            [converged, ~finite, ~ok, ~(watchdog | armijo_ok), k + 1 >= opts.max_iterations],
+            [converged, ~finite, ~ok, ~accepted, k + 1 >= opts.max_iterations],
             [Status.SUCCESS, Status.NONFINITE, Status.SINGULAR, Status.STALLED,
              Status.MAX_ITERATIONS], _RUNNING).astype(jnp.int32)
         k_next = jnp.where(converged, k, k + 1)
