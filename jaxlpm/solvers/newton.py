@@ -11,7 +11,7 @@ H and A come from JAX autodiff, assembled from the collocation structure by
 x_i and u_i, D X is linear). Regularisation (inertia correction as in IPOPT, Waechter &
 Biegler 2006 §3.1): dw = dc = 0 first; if the solve is not finite, the sign of det K shows
 the wrong inertia (see `_kkt_step`), or the step has negative curvature p^T (H + dw I) p < 0,
-retry with dw = max(1e-8 scale, dw_last / 4), then 10x per retry, and dc = 1e-12.
+retry with dw = max(1e-8 scale, dw_last / 4), then 100x per retry, and dc = 1e-12.
 Globalisation: the l1 merit f + mu |c|_1 (mu >= 1.5 |lambda+|_inf) with Armijo backtracking,
 after trying the full step and its second-order correction (against the Maratos effect); a
 full step is also accepted when it halves the KKT residual (a watchdog). First multipliers by
@@ -149,7 +149,7 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
         def body(s):
             _, _, dw, _, k = s
             first = jnp.maximum(1e-8 * scale, 0.25 * dw_last)
-            dw = jnp.where(k == 0, 0.0, jnp.where(k == 1, first, 10.0 * dw))
+            dw = jnp.where(k == 0, 0.0, jnp.where(k == 1, first, 100.0 * dw))
             p, lam_new, inertia_ok = _kkt_step(H, A, g, c, dw, jnp.where(k == 0, 0.0, 1e-12))
             return p, lam_new, dw, inertia_ok, k + 1
 
