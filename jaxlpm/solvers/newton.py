@@ -134,7 +134,7 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
 
     def regularised_step(H, A, g, c, dw_last):
         """dw = 0 first; on a non-finite solve, the wrong inertia sign or negative curvature
-        along the step, retry with dw = max(1e-8 scale, dw_last / 4), then x10 (IPOPT-like)."""
+        along the step, retry with dw = max(1e-8 scale, dw_last / 4), then x100 (IPOPT-like)."""
         scale = 1.0 + jnp.max(jnp.abs(jnp.diag(H)))
 
         def bad(p, lam_new, dw, inertia_ok):
