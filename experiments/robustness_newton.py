@@ -36,6 +36,7 @@ import argparse
 import json
 import os
 import platform
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -159,6 +160,17 @@ def _json_default(x):
     if isinstance(x, np.ndarray):
         return x.tolist()
     raise TypeError(type(x))
+
+
+def git_state():
+    """The library's commit and whether jaxlpm/ differs from it (None outside a checkout)."""
+    try:
+        run = lambda *c: subprocess.run(["git", *c], cwd=ROOT, capture_output=True, text=True,  # noqa: E731
+                                        check=True).stdout.strip()
+        return dict(commit=run("rev-parse", "HEAD"),
+                    jaxlpm_modified=bool(run("status", "--porcelain", "--", "jaxlpm")))
+    except (OSError, subprocess.CalledProcessError):
+        return None
 
 
 def check_meta(out: Path, meta: dict):
@@ -328,7 +340,7 @@ def main(argv=None):
                 dispersion="jaxlpm.batch.mei2010_dispersion(jax.random.key(seed), n, model)",
                 command=" ".join([Path(sys.argv[0]).name] + sys.argv[1:]),
                 started=time.strftime("%Y-%m-%d %H:%M:%S %Z"), machine=platform.node(),
-                cpu_count=os.cpu_count(), jax=jax.__version__,
+                cpu_count=os.cpu_count(), jax=jax.__version__, git=git_state(),
                 backend=jax.default_backend())
     check_meta(out, meta)
 
