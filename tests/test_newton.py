@@ -188,6 +188,10 @@ def test_bad_input_raises():
     grid = lpm.lgr(4)
     with pytest.raises(ValueError, match="z0 must have shape"):
         newton_kkt(ocp, grid, jnp.zeros(3))
+    with pytest.raises(ValueError, match="z0 must be finite"):
+        newton_kkt(ocp, grid, jnp.full(tr.n_variables(ocp, grid), jnp.nan))
+    with pytest.raises(ValueError, match="multipliers0 must have shape"):
+        newton_kkt(ocp, grid, jnp.zeros(tr.n_variables(ocp, grid)), jnp.zeros(2))
     with pytest.raises(ValueError, match="path constraints"):
         newton_kkt(ocp.replace(path=lambda s, x, u, d, p: u), grid,
                    jnp.zeros(tr.n_variables(ocp, grid)))

@@ -20,8 +20,8 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
-from ..orbits import KeplerOrbit, elements_to_state, time_from_true_anomaly
-from ..orbits import true_anomaly_from_time
+from ..orbits import (KeplerOrbit, elements_to_state, time_from_true_anomaly,
+                      true_anomaly_from_time)
 from .gravity import gravity_acceleration
 
 RTOL = ATOL = 1e-13

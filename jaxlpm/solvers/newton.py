@@ -13,9 +13,10 @@ Biegler 2006 §3.1): dw = dc = 0 first; if the solve is not finite, the sign of 
 the wrong inertia (see `_kkt_step`), or the step has negative curvature p^T (H + dw I) p < 0,
 retry with dw = max(1e-8 scale, dw_last / 4), then 100x per retry, and dc = 1e-12.
 Globalisation: the l1 merit f + mu |c|_1 (mu >= 1.5 |lambda+|_inf) with Armijo backtracking,
-after trying the full step and its second-order correction (against the Maratos effect); a
-full step is also accepted when it halves the KKT residual (a watchdog). First multipliers by
-least squares. Iterations run in one `lax.while_loop` with a static maximum; the result carries a `Status`, residuals, the residual history and the
+after trying the full step and its second-order correction (against the Maratos effect; the
+corrected step is also accepted when it halves the KKT residual). First multipliers by least
+squares. Iterations run in one `lax.while_loop` with a static maximum; the result carries a
+`Status`, residuals, the residual history and the
 multipliers. Solutions are differentiated by the implicit function theorem on the KKT
 conditions (`jaxlpm.implicit.root`), never through the iterations.
 """
@@ -26,6 +27,7 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 
+from .._validation import check_finite, is_concrete
 from ..implicit import root
 from ..problems.transcription import (equality, equality_jacobian, lagrangian,
                                       lagrangian_hessian, n_variables, objective)
@@ -242,10 +244,16 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
     if ocp.path is not None:
         raise ValueError("newton_kkt handles equality constraints only; this problem has path "
                          "constraints (use the augmented-Lagrangian solver)")
+    ocp.validate()
     n = n_variables(ocp, grid)
     m = jax.eval_shape(lambda: equality(jnp.zeros(n), ocp, grid)).shape[0]
     if z0.shape != (n,):
         raise ValueError(f"z0 must have shape ({n},) for this problem and grid, got {z0.shape}")
+    if multipliers0 is not None and multipliers0.shape != (m,):
+        raise ValueError(f"multipliers0 must have shape ({m},) (one per equality constraint), "
+                         f"got {multipliers0.shape}")
+    if is_concrete(z0):
+        check_finite("z0", z0)
     lam0 = _least_squares_multipliers(z0, ocp, grid) if multipliers0 is None else multipliers0
     w, (status, k, hist, reg) = _solver(options)(jnp.concatenate([z0, lam0]), ocp, grid)
     z, lam = w[:n], w[n:]

@@ -4,7 +4,6 @@ grid and model): nodal values, cost, multipliers, health."""
 from dataclasses import dataclass, field
 
 import jax
-import jax.numpy as jnp
 
 from ..orbits import th_to_lvlh, true_anomaly_from_time
 from ..status import Status
