@@ -273,12 +273,12 @@ def summarise(rec, params, timing, args):
 # truth check
 
 
-def verify(problems, rec, args, grid, out):
-    path = out / "verify.npz"
+def verify(problems, rec, params, args, grid, out):
     ok = np.flatnonzero(rec["status"] == Status.SUCCESS)
     k = min(args.verify, len(ok))
     if k == 0:
         return None
+    path = out / f"verify_{k}.npz"
     if path.exists():
         v = dict(np.load(path))
     else:
@@ -315,7 +315,23 @@ def verify(problems, rec, args, grid, out):
         return dict(min=float(x.min()), median=float(np.median(x)),
                     p90=float(np.percentile(x, 90)), max=float(x.max()))
 
-    return dict(count=int(len(v["index"])), indices=v["index"].tolist(),
+    idx, miss = v["index"], v["position_miss_m"]
+
+    def by(x, edges):
+        rows = []
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            m = (x >= lo) & (x <= hi)
+            rows.append(dict(range=[float(lo), float(hi)], n=int(m.sum()),
+                             median_m=float(np.median(miss[m])) if m.any() else None,
+                             max_m=float(miss[m].max()) if m.any() else None))
+        return rows
+
+    return dict(count=int(len(idx)), indices=idx.tolist(),
+                fraction_within_1m=float(np.mean(miss <= 1.0)),
+                fraction_within_100m=float(np.mean(miss <= 100.0)),
+                position_miss_by_revolutions=by(params["revolutions"][idx],
+                                                np.linspace(1.0, 5.0, 5)),
+                position_miss_by_e=by(params["e"][idx], np.linspace(0.0, 0.7, 8)),
                 propagator="propagate_nonlinear: two-body" + (" + J2" if args.model == "j2"
                                                              else "")
                            + ", Dopri8 rtol=atol=1e-12",
@@ -393,7 +409,7 @@ def main(argv=None):
     timing["chunk_seconds"] = [float(f["seconds"]) for f in files]
     timing["compile_seconds"] = timing.get("compile_seconds", [])
     summary = summarise(rec, params, timing, args)
-    summary["verification"] = verify(problems, rec, args, grid, out)
+    summary["verification"] = verify(problems, rec, params, args, grid, out)
     summary["meta"] = json.loads((out / "meta.json").read_text())
     summary["finished"] = time.strftime("%Y-%m-%d %H:%M:%S %Z")
     write_json_atomic(out / "summary.json", summary)
@@ -454,6 +470,12 @@ def report(s):
               f"ok: {v['integrator_ok']}):")
         print(f"  terminal position miss (m):   {v['position_miss_m']}")
         print(f"  terminal velocity miss (m/s): {v['velocity_miss_m_s']}")
+        print(f"  within 1 m: {100 * v['fraction_within_1m']:.1f} %, within 100 m: "
+              f"{100 * v['fraction_within_100m']:.1f} %")
+        for key, fmt in (("position_miss_by_revolutions", ".0f"), ("position_miss_by_e", ".1f")):
+            print(f"  miss by {key.split('_by_')[1]}: " + "  ".join(
+                f"[{r['range'][0]:{fmt}},{r['range'][1]:{fmt}}] n={r['n']} median "
+                f"{r['median_m']:.2g} max {r['max_m']:.2g} m" for r in v[key] if r["n"]))
 
 
 if __name__ == "__main__":
