@@ -27,7 +27,6 @@ Run:  python experiments/benchmarks/bench_care.py [--out results/bench_care.json
 import argparse
 import json
 import os
-import platform
 import statistics
 import sys
 import time
@@ -49,6 +48,7 @@ import scipy.linalg as sl  # noqa: E402
 from jaxlpm.cases import jiang2011  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402
 from jaxlpm.solvers.lqr import hcw_lqr  # noqa: E402
+from common import cold_compile, machine_info, timed  # noqa: E402  (this directory)
 
 BATCH = 10_000
 SMALL_BATCH = 1_000
@@ -65,33 +65,6 @@ def weightings(count, seed=0):
     return Qs, Rs
 
 
-def timed(fn, *, min_repeats=3, budget_s=5.0, max_repeats=50):
-    times = []
-    start = time.perf_counter()
-    while len(times) < max_repeats:
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-        if len(times) >= min_repeats and time.perf_counter() - start > budget_s:
-            break
-    return dict(median_s=statistics.median(times), min_s=min(times), repeats=len(times))
-
-
-def cold_compile(fn, *args, repeats=2):
-    lows, comps, compiled = [], [], None
-    for _ in range(repeats):
-        jax.clear_caches()
-        t0 = time.perf_counter()
-        lowered = jax.jit(fn).lower(*args)
-        t1 = time.perf_counter()
-        compiled = lowered.compile()
-        lows.append(t1 - t0)
-        comps.append(time.perf_counter() - t1)
-    return compiled, dict(lower_s=statistics.median(lows), compile_s=statistics.median(comps),
-                          total_s=statistics.median([a + b for a, b in zip(lows, comps)]),
-                          repeats=repeats)
-
-
 def nondimensional_residual(P, n, Q, R):
     """||F(P^)||_F / ||Q^||_F of the CARE in time 1/n (P^ = n S P S, Q^ = S Q S, R^ = n^4 R,
     S = diag(1, 1, 1, n, n, n)): the scaling `hcw_lqr` solves in."""
@@ -100,22 +73,6 @@ def nondimensional_residual(P, n, Q, R):
     A, B = np.asarray(hcw_matrix(1.0)), np.vstack([np.zeros((3, 3)), np.eye(3)])
     F = A.T @ Ph + Ph @ A - Ph @ B @ np.linalg.solve(Rh, B.T) @ Ph + Qh
     return np.linalg.norm(F) / np.linalg.norm(Qh)
-
-
-def machine_info():
-    model = "unknown"
-    try:
-        with open("/proc/cpuinfo") as fh:
-            model = next(line.split(":", 1)[1].strip() for line in fh
-                         if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return dict(cpu_model=model, nproc=len(os.sched_getaffinity(0)),
-                platform=platform.platform(), python=platform.python_version(),
-                jax=jax.__version__, jax_backend=jax.default_backend(), numpy=np.__version__,
-                scipy=scipy.__version__, xla_flags=os.environ.get("XLA_FLAGS", ""),
-                openblas_num_threads=os.environ.get("OPENBLAS_NUM_THREADS", ""),
-                loadavg_start=os.getloadavg())
 
 
 def main(argv=None):
@@ -133,7 +90,7 @@ def main(argv=None):
     res = dict(case=dict(chief_altitude_m=jiang2011.ALTITUDE, n_rad_s=n, batch=args.batch,
                          weights="Q = diag(q_i / s_i^2), R = diag(r_j) / (1e-3 m/s^2)^2, "
                                  "q, r log-uniform in [1e-2, 1e2], seed 0; SI"),
-               machine=machine_info())
+               machine=machine_info(scipy=scipy.__version__))
 
     # 1-2. batched ---------------------------------------------------------------------------
     batched_fn = jax.vmap(hcw_lqr, in_axes=(None, 0, 0))

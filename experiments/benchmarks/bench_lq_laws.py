@@ -26,7 +26,6 @@ Run:  PYTHONPATH=. python experiments/benchmarks/bench_lq_laws.py [--out results
 import argparse
 import json
 import os
-import platform
 import statistics
 import sys
 import time
@@ -55,6 +54,7 @@ from jaxlpm.orbits import KeplerOrbit  # noqa: E402
 from jaxlpm.problems import EnergyOptimalTransfer  # noqa: E402
 from jaxlpm.solvers import kkt_law, solve, stm_law  # noqa: E402
 from jaxlpm.solvers.lq import _setup  # noqa: E402
+from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
 
 A_CHIEF = 9500e3
 E_CASE = 0.3
@@ -83,41 +83,6 @@ def make_batch(es):
         lambda leaf: jnp.broadcast_to(jnp.asarray(leaf, jnp.float64),
                                       (b,) + jnp.shape(leaf)), base)
     return batched.replace(orbit=batched.orbit.replace(e=jnp.asarray(es, jnp.float64)))
-
-
-def timed(fn, *, min_repeats=5, max_repeats=200, budget_s=2.0):
-    """Median (and min, count) wall time of fn() over repeats; fn must block on its result."""
-    times = []
-    start = time.perf_counter()
-    while len(times) < max_repeats:
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-        if len(times) >= min_repeats and time.perf_counter() - start > budget_s:
-            break
-    return dict(median_s=statistics.median(times), min_s=min(times), repeats=len(times))
-
-
-def cold_compile(fn, *args, repeats=3):
-    """Lower + compile times of jax.jit(fn) with the in-memory caches cleared (median)."""
-    lows, comps = [], []
-    compiled = None
-    for _ in range(repeats):
-        jax.clear_caches()
-        t0 = time.perf_counter()
-        lowered = jax.jit(fn).lower(*args)
-        t1 = time.perf_counter()
-        compiled = lowered.compile()
-        t2 = time.perf_counter()
-        lows.append(t1 - t0)
-        comps.append(t2 - t1)
-    tot = [a + b for a, b in zip(lows, comps)]
-    return compiled, dict(lower_s=statistics.median(lows), compile_s=statistics.median(comps),
-                          total_s=statistics.median(tot), repeats=repeats)
-
-
-def block(tree):
-    return jax.block_until_ready(tree)
 
 
 def th_data(problems, grid):
@@ -238,25 +203,6 @@ def th_cost(U, w, rho, h):
 
 
 # ----------------------------------------------------------------------------------- machine
-def machine_info():
-    model = "unknown"
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return dict(cpu_model=model, nproc=len(os.sched_getaffinity(0)), cpu_count=os.cpu_count(),
-                platform=platform.platform(), python=platform.python_version(),
-                jax=jax.__version__, jax_backend=jax.default_backend(),
-                casadi=ca.__version__, numpy=np.__version__, scipy=scipy.__version__,
-                xla_flags=os.environ.get("XLA_FLAGS", ""),
-                openblas_num_threads=os.environ.get("OPENBLAS_NUM_THREADS", ""),
-                loadavg_start=os.getloadavg())
-
-
 # -------------------------------------------------------------------------------------- main
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -273,7 +219,7 @@ def main(argv=None):
                          xf_lvlh=XF_LVLH.tolist(), revolutions=REVOLUTIONS,
                          lgl_points=N_POINTS, N=N_POINTS - 1, batch=args.batch,
                          e_batch=[0.0, E_MAX], dimension="3D (in-plane + out-of-plane)"),
-               machine=machine_info())
+               machine=machine_info(casadi=ca.__version__, scipy=scipy.__version__))
     grid = lgl(N_POINTS)
     prob = make_problem(E_CASE)
 

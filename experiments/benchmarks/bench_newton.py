@@ -46,7 +46,6 @@ BENCHMARKS.md)
 import argparse
 import json
 import os
-import platform
 import statistics
 import sys
 import time
@@ -77,6 +76,7 @@ from jaxlpm.problems.transcription import (equality, equality_jacobian,  # noqa:
 from jaxlpm.solvers import newton_transfer  # noqa: E402
 from jaxlpm.solvers.newton import _kkt_step, kkt_residual  # noqa: E402
 from jaxlpm.solvers.transfer import _warm_start  # noqa: E402
+from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
 
 N_POINTS = 65                 # LGL N = 64
 MODEL = "two-body"
@@ -95,47 +95,6 @@ VEL_BOX = 10.0
 
 
 # ----------------------------------------------------------------------------------- helpers
-def block(tree):
-    return jax.block_until_ready(tree)
-
-
-def timed(fn, *, min_repeats=5, max_repeats=200, budget_s=2.0):
-    """Median (and min, count) wall time of fn() over repeats; fn must block on its result."""
-    times, cpu = [], []
-    start = time.perf_counter()
-    while len(times) < max_repeats:
-        t0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        times.append(time.perf_counter() - t0)
-        cpu.append(time.process_time() - c0)
-        if len(times) >= min_repeats and time.perf_counter() - start > budget_s:
-            break
-    return dict(median_s=statistics.median(times), min_s=min(times), repeats=len(times),
-                cpu_median_s=statistics.median(cpu), all_s=times if len(times) <= 10 else None)
-
-
-def cold_compile(fn, *args, repeats=1, compiler_options=None):
-    """Lower + compile times of jax.jit(fn) with the in-memory caches cleared (median), wall
-    and process CPU time (the latter barely depends on other processes' load)."""
-    lows, comps, cpus = [], [], []
-    compiled = None
-    for _ in range(repeats):
-        jax.clear_caches()
-        t0, c0 = time.perf_counter(), time.process_time()
-        lowered = jax.jit(fn).lower(*args)
-        t1 = time.perf_counter()
-        compiled = lowered.compile(compiler_options=compiler_options)
-        t2 = time.perf_counter()
-        cpus.append(time.process_time() - c0)
-        lows.append(t1 - t0)
-        comps.append(t2 - t1)
-    tot = [a + b for a, b in zip(lows, comps)]
-    return compiled, dict(lower_s=statistics.median(lows), compile_s=statistics.median(comps),
-                          total_s=statistics.median(tot), cpu_s=statistics.median(cpus),
-                          repeats=repeats, compiler_options=compiler_options,
-                          loadavg=os.getloadavg())
-
-
 def single_problem():
     return mei2010.problem().replace(model=MODEL)
 
@@ -357,25 +316,6 @@ def batched_lu(B, grid, prob):
 
 
 # ----------------------------------------------------------------------------------- machine
-def machine_info():
-    model = "unknown"
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return dict(cpu_model=model, nproc=len(os.sched_getaffinity(0)), cpu_count=os.cpu_count(),
-                platform=platform.platform(), python=platform.python_version(),
-                jax=jax.__version__, jax_backend=jax.default_backend(),
-                casadi=ca.__version__, numpy=np.__version__,
-                xla_flags=os.environ.get("XLA_FLAGS", ""),
-                openblas_num_threads=os.environ.get("OPENBLAS_NUM_THREADS", ""),
-                loadavg_start=os.getloadavg())
-
-
 # -------------------------------------------------------------------------------------- main
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -414,7 +354,8 @@ def main(argv=None):
                                          revolutions=REV_RANGE, f0="U[0, 2 pi)",
                                          x0_position_box_m=POS_BOX, x0_velocity_box_m_s=VEL_BOX,
                                          xf="0", seed=args.seed)),
-               targets=TARGETS, machine=machine_info(), ipopt_options=IPOPT_OPTIONS)
+               targets=TARGETS, machine=machine_info(casadi=ca.__version__),
+               ipopt_options=IPOPT_OPTIONS)
 
     # 1. single problem: ours ----------------------------------------------------------------
     prob = single_problem()

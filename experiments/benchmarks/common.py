@@ -1,0 +1,68 @@
+"""Timing helpers shared by the benchmark scripts (compile and steady state measured apart)."""
+
+import os
+import platform
+import statistics
+import time
+
+import jax
+import numpy as np
+
+
+def block(tree):
+    return jax.block_until_ready(tree)
+
+
+def timed(fn, *, min_repeats=5, max_repeats=200, budget_s=2.0):
+    """Median (and min, count) wall and process-CPU time of fn() over repeats; fn must block
+    on its result."""
+    times, cpu = [], []
+    start = time.perf_counter()
+    while len(times) < max_repeats:
+        t0, c0 = time.perf_counter(), time.process_time()
+        fn()
+        times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+        if len(times) >= min_repeats and time.perf_counter() - start > budget_s:
+            break
+    return dict(median_s=statistics.median(times), min_s=min(times), repeats=len(times),
+                cpu_median_s=statistics.median(cpu), all_s=times if len(times) <= 10 else None)
+
+
+def cold_compile(fn, *args, repeats=2, compiler_options=None):
+    """Lower + compile times of jax.jit(fn) with the in-memory caches cleared (median), wall
+    and process CPU time (the latter barely depends on other processes' load)."""
+    lows, comps, cpus = [], [], []
+    compiled = None
+    for _ in range(repeats):
+        jax.clear_caches()
+        t0, c0 = time.perf_counter(), time.process_time()
+        lowered = jax.jit(fn).lower(*args)
+        t1 = time.perf_counter()
+        compiled = lowered.compile(compiler_options=compiler_options)
+        t2 = time.perf_counter()
+        cpus.append(time.process_time() - c0)
+        lows.append(t1 - t0)
+        comps.append(t2 - t1)
+    tot = [a + b for a, b in zip(lows, comps)]
+    return compiled, dict(lower_s=statistics.median(lows), compile_s=statistics.median(comps),
+                          total_s=statistics.median(tot), cpu_s=statistics.median(cpus),
+                          repeats=repeats, compiler_options=compiler_options,
+                          loadavg=os.getloadavg())
+
+
+def machine_info(**versions):
+    """CPU, platform, library versions (plus `versions`), CPU runtime settings, load."""
+    model = "unknown"
+    try:
+        with open("/proc/cpuinfo") as fh:
+            model = next(line.split(":", 1)[1].strip() for line in fh
+                         if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return dict(cpu_model=model, nproc=len(os.sched_getaffinity(0)), cpu_count=os.cpu_count(),
+                platform=platform.platform(), python=platform.python_version(),
+                jax=jax.__version__, jax_backend=jax.default_backend(), numpy=np.__version__,
+                **versions, xla_flags=os.environ.get("XLA_FLAGS", ""),
+                openblas_num_threads=os.environ.get("OPENBLAS_NUM_THREADS", ""),
+                loadavg_start=os.getloadavg())
