@@ -58,7 +58,7 @@ from jaxlpm.verify import control_interpolant, propagate_nonlinear, terminal_err
 
 SCHEMA_VERSION = 1
 ROOT = Path(__file__).resolve().parent.parent
-N_POINTS = 65                       # lgl(65): mei2010's N = 64
+N_POINTS = 65                       # default grid lgl(65): mei2010's N = 64
 _SOLUTION_META = ("problem", "grid", "method")
 
 
@@ -75,6 +75,8 @@ def parse_args(argv=None):
     ap.add_argument("--max-iterations", type=int, default=NewtonOptions().max_iterations,
                     help="NewtonOptions.max_iterations (default: the library's default, "
                          f"{NewtonOptions().max_iterations})")
+    ap.add_argument("--points", type=int, default=N_POINTS,
+                    help=f"LGL points of the grid (default {N_POINTS}: mei2010's N = 64)")
     ap.add_argument("--verify", type=int, default=20,
                     help="converged problems to fly through the nonlinear model (20)")
     ap.add_argument("--out", type=Path, default=None,
@@ -89,6 +91,7 @@ def parse_args(argv=None):
     args.options = NewtonOptions(max_iterations=args.max_iterations)
     if args.out is None:
         tag = "" if args.options == NewtonOptions() else f"_it{args.max_iterations}"
+        tag += "" if args.points == N_POINTS else f"_lgl{args.points}"
         args.out = ROOT / "results" / f"robustness_newton_{args.model}_n{args.n}_s{args.seed}{tag}"
     return args
 
@@ -233,7 +236,7 @@ def summarise(rec, params, timing, args):
     lockstep = rec["iterations_run"]
     return dict(
         schema_version=SCHEMA_VERSION, model=args.model, n=int(len(status)), seed=args.seed,
-        grid=f"lgl({N_POINTS})", options=str(args.options),
+        grid=f"lgl({args.points})", options=str(args.options),
         status_counts=counts, converged=int(ok.sum()), fraction_converged=float(ok.mean()),
         target_fraction=0.999, meets_target=bool(ok.mean() >= 0.999),
         nan_without_status=int((nan_any & ok).sum() + (~valid_codes).sum()),
@@ -352,7 +355,7 @@ def main(argv=None):
     out = args.out
     (out / "chunks").mkdir(parents=True, exist_ok=True)
     meta = dict(schema_version=SCHEMA_VERSION, n=args.n, seed=args.seed, chunk=args.chunk,
-                model=args.model, n_points=N_POINTS, options=str(args.options),
+                model=args.model, n_points=args.points, options=str(args.options),
                 dispersion="jaxlpm.batch.mei2010_dispersion(jax.random.key(seed), n, model)",
                 command=" ".join([Path(sys.argv[0]).name] + sys.argv[1:]),
                 started=time.strftime("%Y-%m-%d %H:%M:%S %Z"), machine=platform.node(),
@@ -362,7 +365,7 @@ def main(argv=None):
 
     problems = mei2010_dispersion(jax.random.key(args.seed), args.n, model=args.model)
     params = dispersion_parameters(problems)
-    grid = lgl(N_POINTS)
+    grid = lgl(args.points)
     n_chunks = -(-args.n // args.chunk)
     path_of = lambda c: out / "chunks" / f"chunk_{c:05d}.npz"           # noqa: E731
     todo = [c for c in range(n_chunks) if not path_of(c).exists()]
