@@ -6,30 +6,37 @@ dispersed problems converge, and every other one reports a status (never a NaN w
 Problems: `jaxlpm.batch.mei2010_dispersion` (chief perigee altitude 600 km, e ~ U[0, 0.7],
 1-5 revolutions, f0 and argp uniform, i = raan = 30 deg; chaser LVLH position uniform in a 50 km
 cube, velocity within +-10 m/s per axis; rendezvous at the origin at rest). Grid: lgl(65)
-(mei2010's N = 64). Solver: `jaxlpm.solvers.newton_transfer` with its default options, which
-warm-starts from the linear model's KKT solution.
+(mei2010's N = 64; --points to change). Solver: `jaxlpm.solvers.newton_transfer` with its
+default options (--max-iterations to change the limit), which warm-starts from the linear
+model's KKT solution.
 
-The problems are solved in chunks of --chunk by ONE compiled function
-(jax.jit(jax.vmap(solve_one)), or jax.lax.map over vmapped groups of --vmap-width inside the jit
-when --vmap-width < --chunk: a vmapped while-loop runs every member until the slowest one stops,
-so narrower groups waste less on CPU). The last chunk is padded with copies of its first problem
-so that no second compile happens. Each finished chunk is written to OUT/chunks/chunk_XXXXX.npz
-(atomically): a restarted run (after a crash or Ctrl-C) skips the chunks already there. OUT/meta.json
-pins the run's settings; a restart with other settings is refused.
+The problems are solved in chunks of --chunk by ONE compiled function: jax.jit(jax.vmap(solve))
+by default, or, with --vmap-width w < --chunk, jax.lax.map over vmapped groups of w inside the
+jit. A vmapped while-loop runs every member until the slowest one stops, so on CPU a chunk of
+50 with one 40-iteration failure costs 50 x 40 iterations; --vmap-width 1 (one problem at a
+time inside the compiled call) wastes nothing there, a GPU wants wide groups. The last chunk is
+padded with copies of its first problem so that no second compile happens. Each finished chunk
+is written to OUT/chunks/chunk_XXXXX.npz (atomically): a restarted run (after a crash or
+Ctrl-C) skips the chunks already there. OUT/meta.json pins the run's settings (and records the
+git commit); a restart with other settings is refused.
 
 Per problem: the sampled parameters, status, iterations, cost (m^2/s^3), constraint and
-stationarity residuals (solver units), the KKT-residual history, whether any output is NaN,
-the largest excursion along the transfer and the nodal controls. At the end: the summary
-(counts per Status, fraction converged, iterations, NaN-without-status count, timing, the
-non-converged problems with their parameters, failure rates binned by e and revolutions),
-printed and written to OUT/summary.json; and a truth check: --verify converged problems
-(random, fixed seed) flown through `jaxlpm.verify.propagate_nonlinear` (two-body, plus J2 for
-model "j2"; Dopri8, rtol = atol = 1e-12) with the barycentric interpolant of the nodal
-control, terminal miss (m, m/s) against the target.
+stationarity residuals (solver units), the KKT-residual history, whether any output is NaN or
+Inf, the largest excursion along the transfer and the nodal controls. At the end: the summary
+(counts per Status, fraction converged, iterations, NaN-without-status count, timing with the
+compile separate, the non-converged problems with their parameters, failure rates binned by e,
+revolutions, |v0| and the warm start's KKT residual), printed and written to OUT/summary.json;
+and a truth check: --verify converged problems (random, fixed seed; all of them if --verify
+>= n) flown through `jaxlpm.verify.propagate_nonlinear` (two-body, plus J2 for model "j2";
+Dopri8, rtol = atol = 1e-12) with the barycentric interpolant of the nodal control: terminal
+miss (m, m/s) against the target, overall and binned by revolutions and e.
 
-Run from the repository root (about 20-60 min for 1000 problems on 2 CPU cores):
-    python experiments/robustness_newton.py --n 1000 --seed 0 --model two-body
-    python experiments/robustness_newton.py --n 200 --seed 0 --model j2
+Run from the repository root; on 2 CPU cores about 8 min for 1000 problems on lgl(65) with
+--vmap-width 1 (several times that in lockstep: a chunk with one failure runs 40 iterations
+for all its members), 2 min for 200 with "j2", 35 min for 1000 on lgl(129):
+    python experiments/robustness_newton.py --n 1000 --seed 0 --vmap-width 1 --model two-body
+    python experiments/robustness_newton.py --n 200 --seed 0 --vmap-width 1 --model j2
+Results go to results/robustness_newton_<model>_n<n>_s<seed>[...]/ unless --out is given.
 """
 
 import argparse
