@@ -131,8 +131,10 @@ def test_vmap_over_eccentricity_equals_loop_without_recompiling(law):
     assert len(traces) == 1                      # a new e value reuses the compiled function
     batched = jax.vmap(lambda e: counted(base.replace(orbit=base.orbit.replace(e=e)), grid).cost)(es)
     assert np.all(np.asarray(batched) > 0)
-    # Identical arithmetic batched or not; 1e-12 allows XLA's batched kernels to reassociate sums.
-    np.testing.assert_allclose(np.asarray(batched), loop, rtol=1e-12)
+    # Identical arithmetic batched or not, up to XLA's batched kernels reassociating sums: the
+    # round-off of a cost near its minimum over e scales with the batch's largest cost, not
+    # with its own (one member at 3e-3 differed by 5e-15 against costs up to 0.6).
+    np.testing.assert_allclose(np.asarray(batched), loop, rtol=1e-12, atol=1e-12 * max(loop))
 
 
 @pytest.mark.parametrize("law", ["stm", "kkt"])
@@ -171,7 +173,10 @@ def test_removed_channel_that_stays_controllable():
     assert float(k.cost) > float(solve(make_problem(), grid, "kkt").cost)
     # Same discretisation-level agreement as with all channels (see test_laws_agree_at_nodes).
     assert float(s.cost) == pytest.approx(float(k.cost), rel=1e-6)
-    assert float(k.stationarity_residual) < 1e-6
+    # The multipliers come from an overdetermined least-squares solve through D^T (entries
+    # ~N^2 = 1e3 here): its residual is round-off relative to the multipliers' size (measured
+    # 1.3e-9 of max|gamma| at N = 32; 1e-6 absolute was within 4 % of the measured value).
+    assert float(k.stationarity_residual) < 1e-8 * float(jnp.max(jnp.abs(k.multipliers)))
 
 
 @pytest.mark.parametrize(
