@@ -12,8 +12,11 @@ _cpu_runtime.apply()
 from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
 from .orbits import KeplerOrbit  # noqa: E402
-from .problems import EnergyOptimalTransfer, OptimalControlProblem  # noqa: E402
-from .solvers import NewtonOptions, Solution, TransferSolution, newton_kkt, solve  # noqa: E402
+from .problems import (EnergyOptimalTransfer, MinimumTimeTransfer,  # noqa: E402
+                       OptimalControlProblem)
+from .solvers import (ALOptions, MinimumTimeSolution, NewtonOptions, Solution,  # noqa: E402
+                      TransferSolution, augmented_lagrangian, min_time_transfer, newton_kkt,
+                      solve)
 from .solvers.lqr import Flight, finite_horizon_lqr, hcw_lqr, infinite_horizon_flight  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
 from .status import Status, describe  # noqa: E402
@@ -24,5 +27,7 @@ __all__ = [
     "EnergyOptimalTransfer", "Grid", "KeplerOrbit", "NewtonOptions", "OptimalControlProblem",
     "Solution", "Status", "TransferSolution", "constants", "describe", "lg", "lgl", "lgr",
     "make_grid", "newton_kkt", "solve", "__version__",
+    "ALOptions", "MinimumTimeSolution", "MinimumTimeTransfer", "augmented_lagrangian",
+    "min_time_transfer",
     "CareSolution", "Flight", "care", "finite_horizon_lqr", "hcw_lqr", "infinite_horizon_flight",
 ]

@@ -14,6 +14,7 @@ class Status(enum.IntEnum):
     STALLED = 5
     NOT_STABILISABLE = 6
     NOT_DETECTABLE = 7
+    INFEASIBLE = 8
 
     @property
     def message(self) -> str:
@@ -43,6 +44,11 @@ _MESSAGES = {
     Status.NOT_DETECTABLE: (
         "no stabilising Riccati solution: (Q, A) is not detectable (a mode on the imaginary "
         "axis that the state weight Q does not see, e.g. an unweighted HCW axis)"
+    ),
+    Status.INFEASIBLE: (
+        "locally infeasible: the constraint violation stopped decreasing with the penalty at "
+        "its limit (e.g. a thrust too weak for the allowed final time, or boundary states the "
+        "bounded control cannot reach)"
     ),
 }
 

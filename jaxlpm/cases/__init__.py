@@ -1,7 +1,7 @@
 """Paper reproductions: one module per paper (its data, published numbers and reproduction)."""
 
-from . import jiang2011, mei2010
+from . import duan, jiang2011, mei2010
 
-CASES = {mei2010.NAME: mei2010, jiang2011.NAME: jiang2011}
+CASES = {mei2010.NAME: mei2010, jiang2011.NAME: jiang2011, duan.NAME: duan}
 
 __all__ = ["CASES"]

@@ -104,3 +104,49 @@ def plot_terminal_weight_limit(link, ts, kkt, controls, path):
         a.grid(alpha=0.3, which="both")
     a2.legend(fontsize=8)
     return _save(fig, path)
+
+
+def plot_direction_history(ts, directions, node_t, node_directions, names, path, title):
+    """Thrust direction components vs time: interpolant (lines) and nodal values (dots)."""
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, name in enumerate(names):
+        line, = ax.plot(ts, directions[:, k], label=f"u {name}")
+        ax.plot(node_t, node_directions[:, k], ".", ms=3, color=line.get_color())
+    ax.set(xlabel="t (s)", ylabel="thrust direction (unit vector)", title=title)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def plot_release_3d(transfer, coast, path, title):
+    """3D relative trajectory: the powered transfer and the coast after it (positions, m)."""
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(*coast[:, :3].T, lw=0.6, color="C0", label="coast (fly-around)")
+    ax.plot(*transfer[:, :3].T, lw=2.0, color="C3", label="powered release")
+    ax.scatter([0], [0], [0], color="k", s=15, label="chief")
+    ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title=title)
+    ax.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def plot_mesh_study(convergence, schemes, path):
+    """Minimum time against the number of points (one scheme) and across schemes: |t_f(K) -
+    t_f*| against the grid-independent reference (rows' "tf_error"), and the flown terminal
+    miss."""
+    K = [r["K"] for r in convergence]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+    a1.semilogy(K, [abs(r["tf_error"]) + 1e-16 for r in convergence], "o-",
+                label=f"{convergence[0].get('scheme', 'LG')}")
+    for r in schemes:
+        a1.semilogy([r["K"]], [abs(r["tf_error"]) + 1e-16], "s", label=f"{r['scheme']} K = "
+                    f"{r['K']}")
+    a1.set(xlabel="K (points)", ylabel="|t_f - t_f*| (s)",
+           title="minimum time against the shooting optimum t_f*")
+    a2.semilogy(K, [r["terminal_miss"][0] for r in convergence], "o-", label="position (m)")
+    a2.semilogy(K, [r["terminal_miss"][1] for r in convergence], "s-", label="velocity (m/s)")
+    a2.set(xlabel="K (points)", title="terminal miss of the flown direction (CW)")
+    for a in (a1, a2):
+        a.grid(alpha=0.3, which="both")
+        a.legend(fontsize=8)
+    return _save(fig, path)

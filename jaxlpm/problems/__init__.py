@@ -1,6 +1,8 @@
 """Optimal-control problem definitions and their pseudospectral transcription."""
 
-from .ocp import OptimalControlProblem
+from .min_time import MinimumTimeTransfer
+from .ocp import OptimalControlProblem, PathPenalty
 from .transfer import MODELS, EnergyOptimalTransfer, check_problem
 
-__all__ = ["EnergyOptimalTransfer", "MODELS", "OptimalControlProblem", "check_problem"]
+__all__ = ["EnergyOptimalTransfer", "MODELS", "MinimumTimeTransfer", "OptimalControlProblem",
+           "PathPenalty", "check_problem"]

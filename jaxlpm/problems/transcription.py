@@ -8,6 +8,9 @@ State rows by scheme (tau in [-1, 1], s = s0 + h (tau + 1), h = (sf - s0) / 2):
   LGR  [K Radau points (-1 included), +1], the final point not collocated (Garg et al. 2010)
 Equality constraints: defects D X - h F(X_c, U) at the collocation points (n, n_x), for LG the
 quadrature row, then the boundary residuals b(x0, xf, sf). Cost: h sum_i w_i L_i + phi.
+Path constraints g <= 0, h = 0 are imposed at the collocation points (where the controls live),
+the final-s bounds on sf; with a `PathPenalty` (the augmented-Lagrangian solver's inner
+problems) the objective carries their augmented-Lagrangian terms.
 
 Costate estimates (Garg et al. 2010, Benson et al. 2006): with the Lagrangian J + Lambda^T c,
 lambda(tau_i) = -Lambda_i / w_i at the collocation points (LG: -(Lambda_i / w_i + Lambda_F),
@@ -83,13 +86,52 @@ def _pointwise(fun, ocp, grid, X, U, sf):
 
 
 def objective(z, ocp: OptimalControlProblem, grid):
-    """J = h sum_i w_i L(s_i, x_i, u_i) + phi(x0, xf, sf)."""
+    """J = h sum_i w_i L(s_i, x_i, u_i) + phi(x0, xf, sf) (+ the `PathPenalty` terms)."""
     X, U, sf = unpack(z, ocp, grid)
     h = 0.5 * (sf - ocp.s0)
     J = h * jnp.dot(grid.weights, _pointwise(ocp.running_cost, ocp, grid, X, U, sf))
     if ocp.terminal_cost is not None:
         J = J + ocp.terminal_cost(X[0], X[-1], sf, ocp.params)
+    if ocp.penalty is not None:
+        G, H, B = path_values(z, ocp, grid)
+        P = ocp.penalty
+        J = J + (jnp.sum(phr_inequality(G, P.inequality, P.rho))
+                 + jnp.sum(phr_equality(H, P.equality, P.rho))
+                 + jnp.sum(phr_inequality(B, P.bounds, P.rho)))
     return J
+
+
+def phr_inequality(g, mu, rho):
+    """Augmented-Lagrangian term of g <= 0 with multiplier mu >= 0 (elementwise):
+    [max(0, mu + rho g)^2 - mu^2] / (2 rho) (Nocedal & Wright 2006, eq. 17.65)."""
+    return (jnp.maximum(mu + rho * g, 0.0) ** 2 - mu**2) / (2.0 * rho)
+
+
+def phr_equality(h, nu, rho):
+    """Augmented-Lagrangian term of h = 0 with multiplier nu: nu h + rho h^2 / 2 (eq. 17.39)."""
+    return nu * h + 0.5 * rho * h**2
+
+
+def _point_values(fun, ocp, grid, X, U, sf):
+    """fun's values (n, n_fun) at the collocation points; (n, 0) when fun is None."""
+    if fun is None:
+        return jnp.zeros((grid.n, 0), X.dtype)
+    return _pointwise(fun, ocp, grid, X, U, sf).reshape(grid.n, -1)
+
+
+def path_values(z, ocp: OptimalControlProblem, grid):
+    """(G (n, n_g) <= 0, H (n, n_h) = 0, B (2,) or (0,) <= 0): the path inequality and
+    equality values at the collocation points and the final-s bounds [sf_min - sf, sf - sf_max]
+    (an infinite bound gives the constant -1: never active, and no inf in any derivative)."""
+    X, U, sf = unpack(z, ocp, grid)
+    G = _point_values(ocp.path, ocp, grid, X, U, sf)
+    H = _point_values(ocp.path_equality, ocp, grid, X, U, sf)
+    if ocp.final_bounds is None:
+        B = jnp.zeros(0, z.dtype)
+    else:
+        B = jnp.stack([ocp.final_bounds[0] - sf, sf - ocp.final_bounds[1]])
+        B = jnp.where(jnp.isfinite(B), B, -1.0)
+    return G, H, B
 
 
 def defects(z, ocp: OptimalControlProblem, grid):
@@ -109,14 +151,6 @@ def equality(z, ocp: OptimalControlProblem, grid):
     X, _, sf = unpack(z, ocp, grid)
     bc = jnp.atleast_1d(ocp.boundary(X[0], X[-1], sf, ocp.params))
     return jnp.concatenate([defects(z, ocp, grid).reshape(-1), bc])
-
-
-def inequality(z, ocp: OptimalControlProblem, grid):
-    """Path constraints g(z) <= 0 at every collocation point, flattened (empty if none)."""
-    if ocp.path is None:
-        return jnp.zeros(0, z.dtype)
-    X, U, sf = unpack(z, ocp, grid)
-    return _pointwise(ocp.path, ocp, grid, X, U, sf).reshape(-1)
 
 
 def n_boundary(ocp: OptimalControlProblem, grid) -> int:
@@ -201,7 +235,9 @@ def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
     """Hessian of `lagrangian` in z from its separable pieces: per collocation point the block
     of h w_i L(x_i, u_i) - h mu_i . F(x_i, u_i) (mu_i = Lambda_i; LG: + w_i Lambda_F), the
     (x0, xf) block of the boundary and terminal terms, and with a free final s the dense sf
-    row and column (one forward-over-reverse derivative). D X is linear: no contribution."""
+    row and column (one forward-over-reverse derivative). D X is linear: no contribution.
+    A `PathPenalty`'s path terms join the per-point blocks (its final-s term lives in the sf
+    row and column)."""
     X, U, sf = unpack(z, ocp, grid)
     n_x, n = ocp.n_x, z.size
     h = 0.5 * (sf - ocp.s0)
@@ -213,15 +249,28 @@ def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
     s = collocation_s(ocp, grid, sf)
     data_axis = None if ocp.node_data is None else 0
 
-    def point_block(si, x, u, d, mui, wi):
+    P = ocp.penalty
+    if P is None:
+        pen_g = pen_h = jnp.zeros((grid.n, 0), z.dtype)
+    else:
+        pen_g, pen_h = P.inequality, P.equality
+
+    def point_block(si, x, u, d, mui, wi, gi, hi):
         def ell(v):
             xv, uv = v[:n_x], v[n_x:]
-            return h * (wi * ocp.running_cost(si, xv, uv, d, ocp.params)
-                        - mui @ ocp.dynamics(si, xv, uv, d, ocp.params))
+            val = h * (wi * ocp.running_cost(si, xv, uv, d, ocp.params)
+                       - mui @ ocp.dynamics(si, xv, uv, d, ocp.params))
+            if P is not None and ocp.path is not None:
+                g = jnp.atleast_1d(ocp.path(si, xv, uv, d, ocp.params))
+                val = val + jnp.sum(phr_inequality(g, gi, P.rho))
+            if P is not None and ocp.path_equality is not None:
+                e = jnp.atleast_1d(ocp.path_equality(si, xv, uv, d, ocp.params))
+                val = val + jnp.sum(phr_equality(e, hi, P.rho))
+            return val
         return jax.hessian(ell)(jnp.concatenate([x, u]))
 
-    blocks = jax.vmap(point_block, in_axes=(0, 0, 0, data_axis, 0, 0))(
-        s, X[collocated_rows(grid)], U, ocp.node_data, mu, grid.weights)
+    blocks = jax.vmap(point_block, in_axes=(0, 0, 0, data_axis, 0, 0, 0, 0))(
+        s, X[collocated_rows(grid)], U, ocp.node_data, mu, grid.weights, pen_g, pen_h)
     idx = _point_indices(ocp, grid)
     H = jnp.zeros((n, n), z.dtype).at[idx[:, :, None], idx[:, None, :]].add(blocks)
 

@@ -5,9 +5,11 @@ import jax
 from .._validation import is_concrete, require_x64
 from ..problems import check_problem
 from ..collocation import Grid
+from .augmented_lagrangian import ALOptions, ALResult, augmented_lagrangian
 from .lq import kkt_law, stm_law
+from .min_time import min_time_transfer
 from .newton import NLPResult, NewtonOptions, newton_kkt, newton_step
-from .solution import Solution, TransferSolution
+from .solution import MinimumTimeSolution, Solution, TransferSolution
 from .transfer import newton_transfer
 
 LAWS = {"stm": stm_law, "kkt": kkt_law, "newton": newton_transfer}
@@ -48,5 +50,7 @@ def solve(problem, grid, method: str = "kkt"):
     return LAWS[method](problem, grid)
 
 
-__all__ = ["LAWS", "MIN_POINTS", "NLPResult", "NewtonOptions", "Solution", "TransferSolution",
-           "kkt_law", "newton_kkt", "newton_step", "newton_transfer", "solve", "stm_law"]
+__all__ = ["ALOptions", "ALResult", "LAWS", "MIN_POINTS", "MinimumTimeSolution", "NLPResult",
+           "NewtonOptions", "Solution", "TransferSolution", "augmented_lagrangian", "kkt_law",
+           "min_time_transfer", "newton_kkt", "newton_step", "newton_transfer", "solve",
+           "stm_law"]

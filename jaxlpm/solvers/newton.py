@@ -241,9 +241,9 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
     problem's array leaves (params, node_data, s0, sf) by the implicit function theorem.
     Path constraints are not handled here (the augmented-Lagrangian solver does them).
     """
-    if ocp.path is not None:
+    if ocp.has_path_constraints and ocp.penalty is None:
         raise ValueError("newton_kkt handles equality constraints only; this problem has path "
-                         "constraints (use the augmented-Lagrangian solver)")
+                         "constraints or final-s bounds (use augmented_lagrangian)")
     ocp.validate()
     n = n_variables(ocp, grid)
     m = jax.eval_shape(lambda: equality(jnp.zeros(n), ocp, grid)).shape[0]

@@ -1,5 +1,6 @@
-"""Solution pytrees: `Solution` (the LQ laws, LGL) and `TransferSolution` (Newton-KKT, any
-grid and model): nodal values, cost, multipliers, health."""
+"""Solution pytrees: `Solution` (the LQ laws, LGL), `TransferSolution` (Newton-KKT, any grid
+and model) and `MinimumTimeSolution` (augmented Lagrangian): nodal values, cost, multipliers,
+health."""
 
 from dataclasses import dataclass, field
 
@@ -84,9 +85,43 @@ class Solution:
         return self.states_at_true_anomaly(self._f_of_t(t))
 
 
+class _CollocatedSolution:
+    """Status message and interpolation in the anomaly s shared by the Newton-KKT and
+    augmented-Lagrangian solutions (fields s0, sf, grid, node_controls, state_times, states)."""
+
+    @property
+    def message(self) -> str:
+        """The status in words (concrete, unbatched solutions)."""
+        return Status(int(self.status)).message
+
+    def anomaly_interval(self):
+        """(s0, sf): the anomaly interval the nodes span."""
+        return self.s0, self.sf
+
+    def _tau(self, s):
+        return 2.0 * (s - self.s0) / (self.sf - self.s0) - 1.0
+
+    def controls_at_anomaly(self, s):
+        """u (m/s^2, LVLH) at anomaly s: barycentric Lagrange over the collocation points."""
+        return self.grid.interpolate_control(self.node_controls, self._tau(s))
+
+    def _support(self, values):
+        return values[:-1] if self.grid.scheme == "LG" else values
+
+    def time_at_anomaly(self, s):
+        """Time since the start (s) at anomaly s: Lagrange interpolation of the nodal times."""
+        return self.grid.interpolate_state(self._support(self.state_times), self._tau(s))
+
+    def states_at_anomaly(self, s):
+        """LVLH state (m, m/s) at anomaly s: Lagrange interpolation of the nodal LVLH states
+        over the state polynomial's support (for the "linear" model, whose polynomial is the
+        TH state, this differs from it at the discretisation's accuracy)."""
+        return self.grid.interpolate_state(self._support(self.states), self._tau(s))
+
+
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
-class TransferSolution:
+class TransferSolution(_CollocatedSolution):
     """A transfer solved by the Newton-KKT solver on any grid (LGL, LG, LGR) and model.
 
     s0, sf        the chief's anomaly at the start and end (rad): true anomaly for the
@@ -126,31 +161,59 @@ class TransferSolution:
     status: jax.Array
     method: str = field(default="newton", metadata=dict(static=True))
 
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class MinimumTimeSolution(_CollocatedSolution):
+    """A minimum-time transfer (`jaxlpm.problems.min_time`) solved by the augmented-Lagrangian
+    solver on any grid. s is the circular chief's true anomaly, s = s0 + n t.
+
+    duration      minimum transfer time t_f (s)
+    node_s, node_times, node_controls   at the collocation points: anomaly (rad), time since
+                  the start (s), LVLH thrust acceleration (T/m) u_hat (m/s^2)
+    state_s, state_times, states        at the state rows: anomaly, time, LVLH state (m, m/s)
+    costates      costate estimates at the collocation points (scaled units, per radian)
+    multipliers   equality multipliers; path_multipliers: `PathPenalty` (direction, bounds)
+    constraint_residual, path_residual, stationarity_residual, complementarity (scaled units)
+    outer_iterations, inner_iterations, history (path violation per outer iteration), status
+    """
+
+    problem: object
+    grid: object
+    duration: jax.Array
+    s0: jax.Array
+    sf: jax.Array
+    node_s: jax.Array
+    node_times: jax.Array
+    node_controls: jax.Array
+    state_s: jax.Array
+    state_times: jax.Array
+    states: jax.Array
+    costates: jax.Array
+    multipliers: jax.Array
+    path_multipliers: object
+    constraint_residual: jax.Array
+    path_residual: jax.Array
+    stationarity_residual: jax.Array
+    complementarity: jax.Array
+    outer_iterations: jax.Array
+    inner_iterations: jax.Array
+    history: jax.Array
+    status: jax.Array
+    method: str = field(default="augmented-lagrangian", metadata=dict(static=True))
+
     @property
-    def message(self) -> str:
-        """The status in words (concrete, unbatched solutions)."""
-        return Status(int(self.status)).message
+    def node_directions(self):
+        """Thrust direction u_hat at the collocation points (LVLH unit vectors)."""
+        return self.node_controls / self.problem.acceleration
 
-    def anomaly_interval(self):
-        """(s0, sf): the anomaly interval the nodes span."""
-        return self.s0, self.sf
+    def _s_of_t(self, t):
+        return self.s0 + self.problem.orbit.mean_motion * t
 
-    def _tau(self, s):
-        return 2.0 * (s - self.s0) / (self.sf - self.s0) - 1.0
+    def controls_at_time(self, t):
+        """Thrust acceleration (m/s^2, LVLH) at time t (s since the start), interpolated."""
+        return self.controls_at_anomaly(self._s_of_t(t))
 
-    def controls_at_anomaly(self, s):
-        """u (m/s^2, LVLH) at anomaly s: barycentric Lagrange over the collocation points."""
-        return self.grid.interpolate_control(self.node_controls, self._tau(s))
-
-    def _support(self, values):
-        return values[:-1] if self.grid.scheme == "LG" else values
-
-    def time_at_anomaly(self, s):
-        """Time since the start (s) at anomaly s: Lagrange interpolation of the nodal times."""
-        return self.grid.interpolate_state(self._support(self.state_times), self._tau(s))
-
-    def states_at_anomaly(self, s):
-        """LVLH state (m, m/s) at anomaly s: Lagrange interpolation of the nodal LVLH states
-        over the state polynomial's support (for the "linear" model, whose polynomial is the
-        TH state, this differs from it at the discretisation's accuracy)."""
-        return self.grid.interpolate_state(self._support(self.states), self._tau(s))
+    def states_at_time(self, t):
+        """LVLH state (m, m/s) at time t (s since the start), interpolated."""
+        return self.states_at_anomaly(self._s_of_t(t))

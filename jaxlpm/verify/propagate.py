@@ -32,21 +32,28 @@ RTOL = ATOL = 1e-12
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class ControlInterpolant:
-    """u(f) = barycentric interpolant of `values` (PAD_TO, 3) on `tau` in [f0, fT]."""
+    """u(f) = barycentric interpolant v(f) of `values` (PAD_TO, 3) on `tau` in [f0, fT]; with
+    magnitude > 0 the interpolated direction at that magnitude, magnitude v / |v| (a
+    constant-thrust engine flies the interpolated direction, Duan & Dong 2011 §4)."""
 
     tau: jax.Array
     bary: jax.Array
     values: jax.Array
     f0: jax.Array
     fT: jax.Array
+    magnitude: jax.Array = 0.0
 
     def __call__(self, f):
         t = 2.0 * (f - self.f0) / (self.fT - self.f0) - 1.0
-        return barycentric_interpolate(self.tau, self.bary, self.values, t)
+        v = barycentric_interpolate(self.tau, self.bary, self.values, t)
+        norm = jnp.linalg.norm(v)
+        unit = v / jnp.where(norm > 0.0, norm, 1.0)
+        return jnp.where(self.magnitude > 0.0, self.magnitude * unit, v)
 
 
-def control_interpolant(solution, pad_to: int = PAD_TO) -> ControlInterpolant:
-    """The solution's nodal control as a padded interpolant (works on batched solutions too)."""
+def control_interpolant(solution, pad_to: int = PAD_TO, magnitude=0.0) -> ControlInterpolant:
+    """The solution's nodal control as a padded interpolant (works on batched solutions too);
+    magnitude > 0 (m/s^2) renormalises the interpolated control to that constant magnitude."""
     g = solution.grid
     n = g.points.shape[-1]
     if n > pad_to:
@@ -61,7 +68,9 @@ def control_interpolant(solution, pad_to: int = PAD_TO) -> ControlInterpolant:
     vals = jnp.pad(solution.node_controls, [(0, 0)] * len(lead) + [(0, pad), (0, 0)])
     tau = jnp.broadcast_to(padded(g.points, _FAR), lead + (pad_to,))
     bary = jnp.broadcast_to(padded(g.point_bary, 0.0), lead + (pad_to,))
-    return ControlInterpolant(tau, bary, vals, *solution.anomaly_interval())
+    f0, fT = solution.anomaly_interval()
+    return ControlInterpolant(tau, bary, vals, f0, fT,
+                              jnp.broadcast_to(jnp.asarray(magnitude, vals.dtype), lead))
 
 
 def _integrate(rhs, y0, scale, t1, ts):

@@ -1,0 +1,163 @@
+"""Minimum-time relative transfer with constant thrust magnitude and free direction (HCW).
+
+    minimise    t_f
+    subject to  x_dd = A_HCW x + (T / m) u_hat,   |u_hat| = 1 (the engine always fires at
+                constant thrust, free direction; Duan & Dong 2011),
+                x(0) = x0, x(t_f) = xf,  t_min <= t_f <= t_max
+    LVLH frame (x radial out, y along-track, z orbit normal), m, m/s; thrust T in N, mass m in
+    kg held constant (no mass flow: the paper gives no Isp).
+
+The chief is circular (HCW, mean motion n). As an `OptimalControlProblem`: independent
+variable s = f0 + n t (the chief's true anomaly), state [r / L, v / (L n)] with
+L = max(|r0|, |rf|, 1 m), control u_hat, acceleration a~ = (T / m) / (L n^2), cost
+phi = s_f - s0 = n t_f, free final s with bounds n [t_min, t_max]; the unit direction is the
+path equality |u_hat|^2 - 1 = 0 at every collocation point. (A throttleable engine,
+|u_hat| <= 1, has the same minimum time: the minimum-time engine always fires at full thrust.)
+"""
+
+from dataclasses import dataclass, replace
+
+import jax
+import jax.numpy as jnp
+
+from .._validation import check_finite, check_shape, is_concrete
+from ..dynamics import hcw_matrix
+from ..orbits import KeplerOrbit
+from .ocp import OptimalControlProblem
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class MinimumTimeTransfer:
+    """See the module docstring. `duration_bounds` = [t_min, t_max] (s; inf allowed;
+    None: [0, inf))."""
+
+    orbit: KeplerOrbit
+    x0: jax.Array
+    xf: jax.Array
+    thrust: jax.Array
+    mass: jax.Array
+    duration_bounds: jax.Array = None
+
+    def replace(self, **kwargs) -> "MinimumTimeTransfer":
+        return replace(self, **kwargs)
+
+    @property
+    def bounds(self):
+        """[t_min, t_max] (s)."""
+        if self.duration_bounds is None:
+            return jnp.array([0.0, jnp.inf])
+        return jnp.asarray(self.duration_bounds)
+
+    @property
+    def acceleration(self):
+        """Thrust acceleration T / m (m/s^2)."""
+        return self.thrust / self.mass
+
+    def validate(self) -> None:
+        """Raise ValueError naming what is wrong and what is allowed (concrete inputs)."""
+        check_shape("x0", self.x0, (6,))
+        check_shape("xf", self.xf, (6,))
+        check_shape("duration_bounds", self.bounds, (2,))
+        check_finite("x0", self.x0)
+        check_finite("xf", self.xf)
+        if float(check_finite("orbit.e", self.orbit.e)) != 0.0:
+            raise ValueError(f"minimum-time transfers use the HCW equations: the chief must be "
+                             f"circular (orbit.e = 0), got e = {self.orbit.e}")
+        if not float(check_finite("orbit.a", self.orbit.a)) > 0.0:
+            raise ValueError(f"orbit.a must be a positive radius in m, got {self.orbit.a}")
+        for name in ("thrust", "mass"):
+            check_shape(name, self.thrust if name == "thrust" else self.mass, ())
+            if not float(check_finite(name, getattr(self, name))) > 0.0:
+                raise ValueError(f"{name} must be positive (N, kg), got {getattr(self, name)}")
+        lo, hi = (float(b) for b in self.bounds)
+        if not (lo >= 0.0 and lo < hi):
+            raise ValueError(f"duration_bounds must satisfy 0 <= t_min < t_max (s), got "
+                             f"[{lo}, {hi}]")
+        if bool(jnp.all(self.x0 == self.xf)):
+            raise ValueError("x0 equals xf: the minimum time is 0 (nothing to transfer)")
+
+    def validity(self):
+        """In-graph validity flag for traced inputs (the checks of `validate`)."""
+        o, (lo, hi) = self.orbit, self.bounds
+        finite = jnp.all(jnp.isfinite(self.x0)) & jnp.all(jnp.isfinite(self.xf))
+        finite &= jnp.isfinite(o.a) & jnp.isfinite(o.e) & jnp.isfinite(self.thrust)
+        finite &= jnp.isfinite(self.mass) & ~jnp.isnan(lo) & ~jnp.isnan(hi)
+        return (finite & (o.e == 0.0) & (o.a > 0.0) & (self.thrust > 0.0) & (self.mass > 0.0)
+                & (lo >= 0.0) & (lo < hi) & jnp.any(self.x0 != self.xf))
+
+    def sanitized(self, valid):
+        """A copy with a harmless problem where `valid` is False (finite numbers, then zeroed,
+        for an invalid member of a batch)."""
+        o = self.orbit
+        return self.replace(
+            orbit=o.replace(e=jnp.where(valid, o.e, 0.0), a=jnp.where(valid, o.a, 7.0e6)),
+            x0=jnp.where(valid, self.x0, 0.0),
+            xf=jnp.where(valid, self.xf, jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0])),
+            thrust=jnp.where(valid, self.thrust, 1.0), mass=jnp.where(valid, self.mass, 100.0),
+            duration_bounds=jnp.where(valid, self.bounds, jnp.array([0.0, jnp.inf])))
+
+
+def check_min_time_problem(problem: MinimumTimeTransfer) -> None:
+    """Validate at the Python boundary when the inputs are concrete."""
+    if is_concrete(problem):
+        problem.validate()
+
+
+def length_scale(problem: MinimumTimeTransfer):
+    """L = max(|r0|, |rf|, 1 m)."""
+    return jnp.maximum(jnp.maximum(jnp.linalg.norm(problem.x0[:3]),
+                                   jnp.linalg.norm(problem.xf[:3])), 1.0)
+
+
+def state_scale(problem: MinimumTimeTransfer):
+    """SI state = state_scale * the solver's state."""
+    L, n = length_scale(problem), problem.orbit.mean_motion
+    return jnp.concatenate([jnp.full(3, L), jnp.full(3, L * n)])
+
+
+def _dynamics(s, x, u, data, p):
+    return hcw_matrix(1.0) @ x + jnp.concatenate([jnp.zeros(3), p["accel"] * u])
+
+
+def _no_running_cost(s, x, u, data, p):
+    return 0.0 * s
+
+
+def _energy(s, x, u, data, p):
+    return 0.5 * jnp.dot(u, u)
+
+
+def _elapsed(x0, xf, sf, p):
+    return sf - p["s0"]
+
+
+def _fixed_ends(x0, xf, sf, p):
+    return jnp.concatenate([x0 - p["x0"], xf - p["xf"]])
+
+
+def _unit_direction(s, x, u, data, p):
+    return jnp.dot(u, u)[None] - 1.0
+
+
+def min_time_ocp(problem: MinimumTimeTransfer, duration_guess) -> OptimalControlProblem:
+    """The transfer as an `OptimalControlProblem` (see the module docstring); the initial
+    final s is s0 + n * duration_guess."""
+    o = problem.orbit
+    n, scale = o.mean_motion, state_scale(problem)
+    s0 = o.f0 + 0.0 * n
+    params = {"x0": problem.x0 / scale, "xf": problem.xf / scale, "s0": s0,
+              "accel": problem.acceleration / (length_scale(problem) * n**2)}
+    return OptimalControlProblem(
+        n_x=6, n_u=3, dynamics=_dynamics, running_cost=_no_running_cost, boundary=_fixed_ends,
+        s0=s0, sf=s0 + n * duration_guess, params=params, terminal_cost=_elapsed,
+        free_final=True, path_equality=_unit_direction,
+        final_bounds=s0 + n * problem.bounds.astype(s0.dtype))
+
+
+def energy_ocp(ocp: OptimalControlProblem, duration_nd) -> OptimalControlProblem:
+    """The same dynamics and ends with cost 1/2 int |u_hat|^2 ds over a fixed duration n t
+    and no path constraints: a QP whose solution seeds the minimum-time solve."""
+    return ocp.replace(running_cost=_energy, terminal_cost=None, free_final=False,
+                       path_equality=None, path=None, final_bounds=None,
+                       sf=ocp.s0 + duration_nd)
