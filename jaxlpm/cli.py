@@ -1,4 +1,6 @@
-"""Command line: `jaxlpm reproduce <case> [--json FILE] [--out DIR]`, `jaxlpm list`."""
+"""Command line: `jaxlpm reproduce <case> [--json FILE] [--out DIR]`, `jaxlpm list`,
+`jaxlpm sweep <case> --e A:B:n --revolutions A:B:n --N 16,32,64 [--method kkt] [--out DIR]
+[--sensitivities]` (resumable; see `jaxlpm.batch.sweep`)."""
 
 import argparse
 import json
@@ -48,6 +50,75 @@ def _list(args):
     return 0
 
 
+SWEEP_CASES = ("mei2010",)      # cases whose `problem()` is an EnergyOptimalTransfer to sweep about
+
+
+def _values(text, integer=False):
+    """'a:b:n' -> n values linspace(a, b, n); 'v1,v2,...' -> those values."""
+    import numpy as np
+
+    try:
+        if ":" in text:
+            a, b, n = text.split(":")
+            if int(n) < 1:
+                raise ValueError
+            values = np.linspace(float(a), float(b), int(n))
+        else:
+            values = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected 'start:stop:count' (linspace, count >= 1) or comma-separated values, "
+            f"got {text!r}") from None
+    if integer:
+        if not np.all(values == np.round(values)):
+            raise argparse.ArgumentTypeError(f"expected integers, got {text!r}")
+        return sorted({int(v) for v in values})
+    return values
+
+
+def _sweep(args):
+    import importlib
+
+    cache = _setup_jax()
+    from .batch import parameter_grid, sensitivity_family, sweep, transfer_family
+
+    case = importlib.import_module(f".cases.{args.case}", __package__)
+    family = transfer_family(args.case, case.problem(), args.method, args.hold)
+    if args.sensitivities:
+        family = sensitivity_family(family)
+    axes = {k: getattr(args, k) for k in ("e", "revolutions", "duration")
+            if getattr(args, k) is not None}
+    if not axes:
+        raise SystemExit("jaxlpm sweep: give at least one of --e, --revolutions, --duration")
+    out = Path(args.out) if args.out else Path("results") / f"sweep_{args.case}_{args.method}"
+    held = family.definition["held_when_e_varies"]
+    print(f"jaxlpm sweep {args.case} (method {args.method}): "
+          + ", ".join(f"{k} {len(v)} values in [{v.min():g}, {v.max():g}]" for k, v in axes.items())
+          + f", N = {args.N}; when e varies the chief's {held} is held\n"
+          f"compilation cache: {cache}\nresults: {out}", flush=True)
+    try:
+        result = sweep(family, parameter_grid(**axes), args.N, out, chunk_size=args.chunk,
+                       batch_size=args.batch_size, progress=not args.no_progress)
+    except ValueError as err:
+        raise SystemExit(f"jaxlpm sweep: {err}") from None
+    stats = result.statistics()
+    for N, s in result.summary().items():
+        bad = s["not_converged"]
+        print(f"N = {N:>4}: {s['converged']}/{s['members']} converged"
+              + (f"; not converged: members {bad[:20]}{' ...' if len(bad) > 20 else ''} "
+                 f"({', '.join(f'{k} {v}' for k, v in s['status_counts'].items())})"
+                 if bad else ""))
+        for col, unit in (("cost", "m^2/s^3"), ("delta_v", "m/s")):
+            c = stats[int(N)][col]
+            if c["converged"]:
+                print(f"         {col} over the converged ({unit}): median "
+                      f"{c['percentiles'][50.0]:.6g}, 5-95 % [{c['percentiles'][5.0]:.6g}, "
+                      f"{c['percentiles'][95.0]:.6g}], mean {c['mean']:.6g}")
+    print(f"results in {out} (manifest.json; N<N>/chunk_*.npz, one row per member; "
+          f"jaxlpm.batch.load_sweep reads them)")
+    return 0
+
+
 def main(argv=None):
     from .cases import CASES
 
@@ -60,6 +131,34 @@ def main(argv=None):
     rep.set_defaults(func=_reproduce)
     lst = sub.add_parser("list", help="list the reproducible cases")
     lst.set_defaults(func=_list)
+    swp = sub.add_parser(
+        "sweep", help="solve a case's transfer over a grid of e, durations and N (resumable)",
+        description="Solve the case's transfer for every combination of the given values at "
+                    "every N; re-running the same command resumes. Values: 'a:b:n' (linspace) "
+                    "or 'v1,v2,...'.")
+    swp.add_argument("case", choices=SWEEP_CASES)
+    swp.add_argument("--e", type=_values, help="chief eccentricities")
+    dur = swp.add_mutually_exclusive_group()
+    dur.add_argument("--revolutions", type=_values, help="durations in chief orbital periods")
+    dur.add_argument("--duration", type=_values, help="durations in s")
+    swp.add_argument("--N", type=lambda t: _values(t, integer=True), required=True,
+                     help="grid sizes: the polynomial degree N, grid lgl(N + 1), e.g. 16,32,64")
+    swp.add_argument("--method", default="kkt", choices=("kkt", "stm", "newton"),
+                     help="kkt/stm: the linear laws (linear model); newton: Newton-KKT on the "
+                          "nonlinear two-body model (default kkt)")
+    swp.add_argument("--hold", default="perigee", choices=("perigee", "a"),
+                     help="what stays fixed when e varies: the chief's perigee radius "
+                          "(default) or its semi-major axis")
+    swp.add_argument("--chunk", type=int, default=256, help="members per chunk file (256)")
+    swp.add_argument("--batch-size", type=int, default=None,
+                     help="members a device solves at once (default: its whole share of a "
+                          "chunk)")
+    swp.add_argument("--out", help="the sweep's directory (default results/sweep_<case>_<method>)")
+    swp.add_argument("--sensitivities", action="store_true",
+                     help="also store d cost/d p and d delta_v/d p for each swept p and the "
+                          "gain d u(t0)/d x0 (implicit differentiation, batched)")
+    swp.add_argument("--no-progress", action="store_true", help="no progress bar")
+    swp.set_defaults(func=_sweep)
     args = parser.parse_args(argv)
     return args.func(args)
 

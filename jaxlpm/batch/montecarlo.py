@@ -1,0 +1,170 @@
+"""Monte Carlo studies, each reproducible from a `jax.random` key.
+
+(a) `replan_monte_carlo`: re-plan per sample. Problems drawn by `mei2010_dispersion` (the
+    Newton-KKT issue's distribution: dispersed chief orbit, duration and chaser state) and
+    solved by the sweep engine (chunked, sharded, resumable), one row per sample.
+(b) `execution_monte_carlo`: one plan, flown many times through a truth model (nonlinear
+    two-body by default; J2 or the linear model on request) with execution errors drawn per
+    sample:
+      thrust magnitude   u -> (1 + d_mag) u,            d_mag ~ N(0, magnitude^2)
+      thrust direction   u -> R(axis, angle) u,         axis uniform on the sphere,
+                                                        angle ~ N(0, direction^2) (rad)
+      navigation         true x0 = planned x0 + (dr, dv), dr ~ N(0, position^2 I3) (m),
+                                                        dv ~ N(0, velocity^2 I3) (m/s)
+    (a constant bias of the engine over the whole transfer, and an initial state known to the
+    navigation filter's accuracy), measuring the terminal miss against the plan's target.
+
+Statistics are taken over the samples that converged only (`converged_statistics`); the
+others are counted and listed.
+"""
+
+import dataclasses
+from dataclasses import dataclass
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._validation import require_x64
+from ..status import Status
+from ..verify import control_interpolant, propagate_linear, propagate_nonlinear
+from .dispersion import dispersion_parameters, mei2010_dispersion
+from .sweep import PERCENTILES, converged_statistics, sweep, transfer_family
+
+REPLAN_PARAMETERS = ("a", "e", "i", "raan", "argp", "f0", "duration", "x0", "xf")
+
+
+def replan_monte_carlo(key, n: int, Ns, method: str = "kkt", out=None, chunk_size: int = 256,
+                       **sweep_options):
+    """Re-plan `n` dispersed transfers (`mei2010_dispersion(key, n)`) at every N of `Ns` (grid
+    lgl(N + 1)) by `method` ("kkt"/"stm": the linear laws on the linear model; "newton":
+    Newton-KKT on the two-body model). Returns the `SweepResult` (one row per sample: its
+    parameters and the solver's record); `.statistics()` gives cost and delta-v statistics and
+    the convergence counts. `sweep_options` go to `sweep` (batch_size, progress, ...).
+    The key's data is part of the sweep's definition, so `out` resumes only the same draw."""
+    require_x64()
+    problems = mei2010_dispersion(key, n)
+    table = dispersion_parameters(problems)
+    params = {k: table[k] for k in REPLAN_PARAMETERS}
+    base = jax.tree_util.tree_map(lambda x: x[0], problems)
+    family = transfer_family("montecarlo_replan", base, method, hold="a")
+    family = dataclasses.replace(family, definition=dict(
+        family.definition, dispersion="mei2010_dispersion", n=int(n),
+        key=np.asarray(jax.random.key_data(key)).tolist()))
+    return sweep(family, params, Ns, out, chunk_size=chunk_size, **sweep_options)
+
+
+@dataclass(frozen=True)
+class ExecutionErrors:
+    """One-sigma execution errors: thrust magnitude (relative), thrust direction (rad),
+    navigation position (m per axis) and velocity (m/s per axis); each finite and >= 0."""
+
+    magnitude: float = 0.0
+    direction: float = 0.0
+    position: float = 0.0
+    velocity: float = 0.0
+
+    def __post_init__(self):
+        for name in ("magnitude", "direction", "position", "velocity"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0.0):
+                raise ValueError(f"ExecutionErrors.{name} is a standard deviation: finite and "
+                                 f">= 0, got {value!r}")
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class _ErroneousControl:
+    """u(f) = gain * rotation @ planned u(f)."""
+
+    planned: object
+    gain: jax.Array
+    rotation: jax.Array
+
+    def __call__(self, f):
+        return self.gain * (self.rotation @ self.planned(f))
+
+
+def _rotation(axis, angle):
+    """Rodrigues: rotation by `angle` (rad) about the unit vector `axis`."""
+    K = jnp.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]],
+                   [-axis[1], axis[0], 0.0]])
+    return jnp.eye(3) + jnp.sin(angle) * K + (1.0 - jnp.cos(angle)) * (K @ K)
+
+
+def execution_draws(key, n: int, errors: ExecutionErrors) -> dict:
+    """The n samples' errors (see the module docstring): gain (n,), axis (n, 3), angle (n,),
+    dx0 (n, 6). One split of `key` per quantity (order: magnitude, axis, angle, position,
+    velocity)."""
+    k_m, k_a, k_t, k_r, k_v = jax.random.split(key, 5)
+    f64 = jnp.float64
+    axis = jax.random.normal(k_a, (n, 3), f64)
+    return dict(gain=1.0 + errors.magnitude * jax.random.normal(k_m, (n,), f64),
+                axis=axis / jnp.linalg.norm(axis, axis=1, keepdims=True),
+                angle=errors.direction * jax.random.normal(k_t, (n,), f64),
+                dx0=jnp.concatenate([errors.position * jax.random.normal(k_r, (n, 3), f64),
+                                     errors.velocity * jax.random.normal(k_v, (n, 3), f64)], 1))
+
+
+MODELS = ("linear", "two-body", "j2")
+
+
+def _fly(d, control, problem, model):
+    """One sample: the planned control with its errors, from the erroneous initial state."""
+    u = _ErroneousControl(control, d["gain"], _rotation(d["axis"], d["angle"]))
+    x0 = problem.x0 + d["dx0"]
+    if model == "linear":
+        _, xs, ok = propagate_linear(problem.orbit, x0, problem.duration, u, n_save=2)
+    else:
+        j2 = problem.j2 if model == "j2" else 0.0
+        _, xs, ok = propagate_nonlinear(problem.orbit, x0, problem.duration, u, n_save=2,
+                                        j2=j2, r_eq=problem.r_eq)
+    miss = xs[-1] - problem.xf
+    return dict(final_state=xs[-1], position_miss=jnp.linalg.norm(miss[:3]),
+                velocity_miss=jnp.linalg.norm(miss[3:]),
+                status=jnp.where(ok & jnp.all(jnp.isfinite(xs[-1])), Status.SUCCESS,
+                                 Status.NONFINITE).astype(jnp.int32))
+
+
+@partial(jax.jit, static_argnames=("model", "batch_size"))
+def _fly_all(draws, control, problem, model, batch_size):
+    """The error-free flight (row 0) and every sample's, through one traced integrator (the
+    nominal rides in the batch); one compile per (model, batch size, sample count), whatever
+    the plan's N (the interpolant is padded to a fixed size)."""
+    nominal = dict(gain=jnp.ones(1), axis=jnp.array([[0.0, 0.0, 1.0]]), angle=jnp.zeros(1),
+                   dx0=jnp.zeros((1, 6)))
+    rows = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), nominal, draws)
+    return jax.lax.map(lambda d: _fly(d, control, problem, model), rows,
+                       batch_size=batch_size)
+
+
+def execution_monte_carlo(key, plan, n: int, errors: ExecutionErrors, model: str = "two-body",
+                          batch_size: int = 64, percentiles=PERCENTILES) -> dict:
+    """Fly `plan` (an unbatched solution of an `EnergyOptimalTransfer`: its nodal control,
+    interpolated in the chief's anomaly, `jaxlpm.verify`) `n` times through `model` ("linear":
+    the linearised elliptic equations; "two-body"; "j2", with the problem's j2 and r_eq) with
+    execution errors drawn from `key`.
+
+    Returns a dict of NumPy arrays and statistics: the draws (gain, axis, angle, dx0),
+    final_state (n, 6) LVLH, position_miss (m) and velocity_miss (m/s) against the plan's
+    target xf, status (SUCCESS, or NONFINITE where the integrator failed), nominal (the
+    error-free flight's [position, velocity] miss), nominal_final_state, and statistics of
+    both misses over the successful samples. Samples run `batch_size` at a time (vmap inside
+    lax.map).
+    """
+    require_x64()
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    if int(n) < 1:
+        raise ValueError(f"n must be a positive number of samples, got {n}")
+    draws = execution_draws(key, int(n), errors)
+    rows = _fly_all(draws, control_interpolant(plan), plan.problem, model,
+                    min(int(batch_size), int(n) + 1))
+    rows = {k: np.asarray(v) for k, v in rows.items()}
+    out = {**{k: np.asarray(v) for k, v in draws.items()}, **{k: v[1:] for k, v in rows.items()}}
+    out["nominal"] = np.array([rows["position_miss"][0], rows["velocity_miss"][0]])
+    out["nominal_final_state"] = rows["final_state"][0]
+    out["statistics"] = {k: converged_statistics(out[k], out["status"], percentiles)
+                         for k in ("position_miss", "velocity_miss")}
+    return out
