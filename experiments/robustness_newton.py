@@ -58,6 +58,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from jaxlpm.batch import dispersion_parameters, mei2010_dispersion  # noqa: E402
+from jaxlpm.batch.sweep import save_npz_atomic, write_json_atomic  # noqa: E402
 from jaxlpm.collocation import lgl  # noqa: E402
 from jaxlpm.solvers import NewtonOptions, newton_transfer  # noqa: E402
 from jaxlpm.status import Status  # noqa: E402
@@ -150,26 +151,6 @@ def take(tree, idx):
 
 # ------------------------------------------------------------------------------------------
 # files
-
-
-def save_npz_atomic(path: Path, **arrays):
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, **arrays)
-    os.replace(tmp, path)
-
-
-def write_json_atomic(path: Path, obj):
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(obj, indent=2, default=_json_default) + "\n")
-    os.replace(tmp, path)
-
-
-def _json_default(x):
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(type(x))
 
 
 def git_state():

@@ -23,7 +23,7 @@ Measured: our cold compile (lower + compile, caches cleared, persistent cache of
 steady-state time (median of repeats), IPOPT's build time and solve time (median of repeats);
 the ratio ours / IPOPT of steady-state times. Wall and process CPU time are both recorded.
 
-Run:  PYTHONPATH=. python experiments/benchmarks/bench_duan.py [--K 100]
+Run:  python experiments/benchmarks/bench_duan.py [--K 100]
       [--out results/bench_duan.json]          (needs the `peer` extra: casadi)
 """
 
@@ -39,7 +39,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.benchmarks.common import block, cold_compile, machine_info, timed  # noqa: E402
+from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
 from jaxlpm import lg, min_time_transfer  # noqa: E402
 from jaxlpm.cases import duan  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402

@@ -237,10 +237,12 @@ NOTES = [
     "Boundary conditions: no drift (v_xD = -2 n y_D) and centred ellipse (v_yD = n x_D / 2) "
     "with v_zD = v_yD; R_E = 6378.137 km (the paper states no radius); docs/duan.md.",
     "The mass is held at 200 kg (no Isp in the paper), as the paper's CW model does.",
-    "t_f* from shooting on the necessary conditions is grid-independent; the paper's 1179.1 s "
-    "is t_f* at its rounding. The optimal direction turns within about a minute near t = 560 s (the "
-    "primer |lambda_v| drops to 1.5 % of its maximum), so one global polynomial converges "
-    "slowly and non-monotonically in K (tf_convergence, schemes; docs/duan.md).",
+    "t_f* from shooting on the necessary conditions is grid-independent. The paper's 1179.1 s "
+    "is our LG K = 100 value (its discretisation) at its 0.1 s rounding; t_f* itself sits 3 ms "
+    "below the rounding boundary 1179.05 s and rounds to 1179.0. The optimal direction turns "
+    "within about a minute near t = 560 s (the primer |lambda_v| drops to 1.5 % of its "
+    "maximum), so one global polynomial converges slowly and non-monotonically in K "
+    "(tf_convergence, schemes; docs/duan.md).",
     "The flown drift rate is set by interpolating the direction across that turn: -1.1e-3 "
     "(barycentric), -1.1e-3 (cubic spline, the paper's choice) and +1.0e-3 m/s (piecewise "
     "linear) at K = 100 (experiments/duan_interpolation.py); the exact optimum has none. The "
