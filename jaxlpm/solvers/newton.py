@@ -10,15 +10,19 @@ H and A come from JAX autodiff, assembled from the collocation structure by
 `jaxlpm.problems.transcription` (per-point blocks: the dynamics and running cost couple only
 x_i and u_i, D X is linear). Regularisation (inertia correction as in IPOPT, Waechter &
 Biegler 2006 §3.1): dw = dc = 0 first; if the solve is not finite, the sign of det K shows
-the wrong inertia (see `_kkt_step`), or the step has negative curvature p^T (H + dw I) p < 0,
-retry with dw = max(1e-8 scale, dw_last / 4), then 100x per retry, and dc = 1e-12.
+the wrong inertia (see `_kkt_step`), or the step's null-space component p_N (p less its
+least-squares range-space part A^T (A A^T)^-1 A p) has negative curvature
+p_N^T (H + dw I) p_N < 0, retry with dw = max(1e-8 scale, dw_last / 4), then 100x per retry,
+and dc = 1e-12.
 Globalisation: the l1 merit f + mu |c|_1 (mu >= 1.5 |lambda+|_inf) with Armijo backtracking,
 after trying the full step and its second-order correction (against the Maratos effect; the
 corrected step is also accepted when it halves the KKT residual). First multipliers by least
-squares. Iterations run in one `lax.while_loop` with a static maximum; the result carries a
-`Status`, residuals, the residual history and the
-multipliers. Solutions are differentiated by the implicit function theorem on the KKT
-conditions (`jaxlpm.implicit.root`), never through the iterations.
+squares. Iterations run in one `lax.while_loop` with a static maximum (convergence is also
+tested after the last step); the result carries a `Status`, residuals, the residual history
+and the multipliers. Optionally, a failed solve is retried by continuation along a homotopy
+of the problem (`newton_kkt`'s homotopy argument). Solutions are differentiated by the
+implicit function theorem on the KKT conditions (`jaxlpm.implicit.root`), never through the
+iterations.
 """
 
 import functools
@@ -42,6 +46,8 @@ class NewtonOptions:
 
     tol_feasibility   max |c| at convergence (problem units: the builders make states O(1))
     tol_optimality    max |grad f + A^T lambda| at convergence
+    max_continuation, continuation_start   the continuation that `newton_kkt` runs when it is
+                      given a homotopy and the direct solve fails
     """
 
     max_iterations: int = 40
@@ -50,6 +56,8 @@ class NewtonOptions:
     max_backtracks: int = 30
     max_regularisations: int = 6
     armijo: float = 1e-4
+    max_continuation: int = 16       # Newton solves of the continuation after a failed start
+    continuation_start: float = 1.0 / 64.0   # its first t (see `newton_kkt`'s homotopy)
 
 
 @jax.tree_util.register_dataclass
@@ -134,13 +142,16 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
         gl = g + A.T @ lam
         return g, c, A, jnp.max(jnp.abs(c)), jnp.max(jnp.abs(gl))
 
-    def regularised_step(H, A, g, c, dw_last):
+    def regularised_step(H, A, g, c, dw_last, null_part):
         """dw = 0 first; on a non-finite solve, the wrong inertia sign or negative curvature
-        along the step, retry with dw = max(1e-8 scale, dw_last / 4), then x100 (IPOPT-like)."""
+        along the step's null-space component (a range-space component may legitimately
+        have p^T H p < 0 while c != 0), retry with dw = max(1e-8 scale, dw_last / 4), then
+        x100 (IPOPT-like)."""
         scale = 1.0 + jnp.max(jnp.abs(jnp.diag(H)))
 
         def bad(p, lam_new, dw, inertia_ok):
-            curvature = p @ (H @ p) + dw * (p @ p)
+            p_n = null_part(p)
+            curvature = p_n @ (H @ p_n) + dw * (p_n @ p_n)
             finite = jnp.all(jnp.isfinite(p)) & jnp.all(jnp.isfinite(lam_new))
             return ~finite | ~inertia_ok | (curvature < 0.0)
 
@@ -167,13 +178,25 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
         kkt = jnp.maximum(feas, opt)
         hist = hist.at[k].set(kkt)
         converged = (feas <= opts.tol_feasibility) & (opt <= opts.tol_optimality)
+        # the iteration after the last step only checks convergence (a last step that lands
+        # on the solution is SUCCESS, not MAX_ITERATIONS)
+        out_of_budget = k >= opts.max_iterations
+        AAt = jax.scipy.linalg.cho_factor(A @ A.T)
+
+        def range_solve(r):
+            return jax.scipy.linalg.cho_solve(AAt, r)
+
+        def null_part(p):
+            return p - A.T @ range_solve(A @ p)
+
         def step(_):
-            return regularised_step(lagrangian_hessian(z, lam, ocp, grid), A, g, c, dw_last)
+            return regularised_step(lagrangian_hessian(z, lam, ocp, grid), A, g, c, dw_last,
+                                    null_part)
 
         def skip(_):          # converged: no factorisation (unbatched; vmap runs both)
             return jnp.zeros_like(z), lam, jnp.zeros((), z.dtype), jnp.array(True)
 
-        p, lam_new, dw, ok = jax.lax.cond(converged, skip, step, None)
+        p, lam_new, dw, ok = jax.lax.cond(converged | out_of_budget, skip, step, None)
         mu = jnp.maximum(mu, 1.5 * jnp.max(jnp.abs(lam_new)) + 1e-12)
         phi0 = merit(z, mu)
         slope = g @ p - mu * jnp.sum(jnp.abs(c))
@@ -188,7 +211,7 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
         # p_soc = -A^T (A A^T)^-1 c(z + p) removes the constraints' curvature that makes the
         # merit reject good Newton steps near a solution (the Maratos effect)
         c_full = c_fun(z + p)
-        p_soc = p - A.T @ jax.scipy.linalg.solve(A @ A.T, c_full, assume_a="pos")
+        p_soc = p - A.T @ range_solve(c_full)
         phi_full, phi_soc = trial(1.0), merit(z + p_soc, mu)
         # a full step (plain or corrected) is also accepted if it halves the KKT residual
         kkt_soc = jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + p_soc, lam_new]), ocp, grid)))
@@ -207,15 +230,15 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
         accepted = use_soc | sufficient(phi, alpha)
         step_taken = jnp.where(use_soc, p_soc, alpha * p)
         alpha = jnp.where(use_soc, 1.0, alpha)
-        moved = ok & accepted & ~converged
+        moved = ok & accepted & ~converged & ~out_of_budget
         z_next = jnp.where(moved, z + step_taken, z)
         lam_next = jnp.where(moved, lam + alpha * (lam_new - lam), lam)
         finite = jnp.all(jnp.isfinite(z_next)) & jnp.all(jnp.isfinite(lam_next))
         status = jnp.select(
-            [converged, ~finite, ~ok, ~accepted, k + 1 >= opts.max_iterations],
-            [Status.SUCCESS, Status.NONFINITE, Status.SINGULAR, Status.STALLED,
-             Status.MAX_ITERATIONS], _RUNNING).astype(jnp.int32)
-        k_next = jnp.where(converged, k, k + 1)
+            [converged, out_of_budget, ~finite, ~ok, ~accepted],
+            [Status.SUCCESS, Status.MAX_ITERATIONS, Status.NONFINITE, Status.SINGULAR,
+             Status.STALLED], _RUNNING).astype(jnp.int32)
+        k_next = jnp.where(converged | out_of_budget, k, k + 1)
         return z_next, lam_next, mu, k_next, hist, jnp.maximum(reg, dw), dw, status
 
     hist0 = jnp.zeros(opts.max_iterations + 1, z0.dtype)
@@ -226,17 +249,59 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
     return jnp.concatenate([z, lam]), (status, k, hist, reg)
 
 
+def _continuation_loop(w0, ocp, grid, options: NewtonOptions, homotopy):
+    """Solve the problem from w0; if that fails, follow homotopy(ocp, t) from t =
+    continuation_start (where w0 is nearly exact) to t = 1 (the problem): each solve starts
+    from the last converged one, t doubles after a success and bisects back towards the last
+    converged t after a failure (Allgower & Georg 1990, ch. 1: embedding with step control).
+    One Newton loop in the compiled program, whatever the path. Returns the converged t = 1
+    solution, or the direct attempt's result and status if the continuation does not get
+    there within max_continuation solves; iterations are counted over all solves."""
+    one = jnp.ones((), w0.dtype)
+
+    def body(s):
+        w_start, t_try, t_good, w_good, attempts, total, w_out, aux_out, _ = s
+        w, (status, k, hist, reg) = _newton_loop(w_start, homotopy(ocp, t_try), grid, options)
+        ok = status == Status.SUCCESS
+        first = attempts == 0
+        reached = ok & (t_try >= 1.0)
+        keep = first | reached
+        w_out = jnp.where(keep, w, w_out)
+        aux_out = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b),
+                                         (status, hist, reg), aux_out)
+        t_good_next = jnp.where(ok, t_try, jnp.where(first, 0.0, t_good))
+        w_good_next = jnp.where(ok, w, jnp.where(first, w0, w_good))
+        t_next = jnp.where(first, options.continuation_start,
+                           jnp.where(ok, jnp.minimum(2.0 * t_try, 1.0), 0.5 * (t_good + t_try)))
+        done = reached | (attempts >= options.max_continuation) | (first & ok)
+        return (w_good_next, t_next, t_good_next, w_good_next, attempts + 1, total + k, w_out,
+                aux_out, done)
+
+    aux0 = (jnp.asarray(_RUNNING, jnp.int32), jnp.zeros(options.max_iterations + 1, w0.dtype),
+            jnp.zeros((), w0.dtype))
+    state = (w0, one, 0.0 * one, w0, 0, 0, w0, aux0, jnp.array(False))
+    *_, total, w, (status, hist, reg), _ = jax.lax.while_loop(lambda s: ~s[-1], body, state)
+    return w, (status, total, hist, reg)
+
+
 @functools.lru_cache(maxsize=None)
-def _solver(options: NewtonOptions):
+def _solver(options: NewtonOptions, homotopy=None):
     @root(kkt_residual, has_aux=True, zero_nonfinite=True)
     def solve(w0, ocp, grid):
-        return _newton_loop(w0, ocp, grid, options)
+        if homotopy is None:
+            return _newton_loop(w0, ocp, grid, options)
+        return _continuation_loop(w0, ocp, grid, options, homotopy)
     return solve
 
 
-def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = NewtonOptions()):
+def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = NewtonOptions(),
+               homotopy=None):
     """Solve the transcribed problem from the initial guess z0 (and multipliers).
 
+    homotopy: optional `(ocp, t) -> ocp`, a module-level function (it keys the compiled
+    solver) embedding the problem in a family with t = 1 the problem itself and t -> 0 one
+    that z0 solves nearly exactly; when the direct solve fails, Newton follows the family
+    from t = options.continuation_start to 1 (`_continuation_loop`).
     Returns an `NLPResult`; z and the multipliers are differentiable with respect to the
     problem's array leaves (params, node_data, s0, sf) by the implicit function theorem.
     Path constraints are not handled here (the augmented-Lagrangian solver does them).
@@ -255,7 +320,8 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
     if is_concrete(z0):
         check_finite("z0", z0)
     lam0 = _least_squares_multipliers(z0, ocp, grid) if multipliers0 is None else multipliers0
-    w, (status, k, hist, reg) = _solver(options)(jnp.concatenate([z0, lam0]), ocp, grid)
+    w, (status, k, hist, reg) = _solver(options, homotopy)(jnp.concatenate([z0, lam0]), ocp,
+                                                           grid)
     z, lam = w[:n], w[n:]
     res = kkt_residual(jax.lax.stop_gradient(w), ocp, grid)
     return NLPResult(z=z, multipliers=lam, status=status, iterations=k,

@@ -42,6 +42,15 @@ def _warm_start(problem, ocp, grid):
     return pack(X, U_si / control_scale(problem), ocp.sf, ocp)
 
 
+def separation_homotopy(ocp, t):
+    """The nonlinear transfer with its boundary states scaled by t (0 < t <= 1), in the same
+    scaled unknowns: with L = max(|r0|, |rf|) the solver's states are x/L, so scaling both
+    boundary states by t changes only the length L -> t L in the dynamics. Relative motion is
+    linear to first order in L / r (Tschauner-Hempel), so small t is the linear warm start's
+    own problem and t = 1 the transfer itself."""
+    return ocp.replace(params={**ocp.params, "length": t * ocp.params["length"]})
+
+
 def _state_s(ocp, grid):
     return ocp.s0 + 0.5 * (ocp.sf - ocp.s0) * (state_tau(grid) + 1.0)
 
@@ -51,8 +60,11 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     """Solve `problem` (any model) on `grid` (any scheme) by Newton-KKT.
 
     warm_start=False starts from zero states and controls (the linear model then converges
-    in one Newton step: it is a QP). Traced invalid inputs give status INVALID_INPUT with
-    zeroed outputs; a failed chief integration (model "j2") gives NONFINITE.
+    in one Newton step: it is a QP). On the nonlinear models a failed solve is retried by
+    continuation in the separation (`separation_homotopy`, from 1/64 of it to all of it);
+    `iterations` then counts every Newton iteration taken. Traced invalid inputs give status
+    INVALID_INPUT with zeroed outputs; a failed chief integration (model "j2") gives
+    NONFINITE.
     """
     valid = problem.validity()
     problem = problem.sanitized(valid)
@@ -63,7 +75,8 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     else:
         n_rows = state_tau(grid).shape[0]
         z0 = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp.sf, ocp)
-    result = newton_kkt(ocp, grid, z0, options=options)
+    homotopy = None if problem.model == "linear" else separation_homotopy
+    result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy)
     X, U, _ = unpack(result.z, ocp, grid)
     states = jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, state_s)
     status = jnp.where(valid, jnp.where(ok, result.status, Status.NONFINITE),
