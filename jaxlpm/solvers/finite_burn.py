@@ -1,0 +1,428 @@
+"""Minimum-duration finite burn of a J2 long-range intercept (Tan, Yan, Zhou & Tang 2011, §2.5,
+eq. 20-21): LGL collocation of the burn arc joined to the J2 coast.
+
+A vehicle coasts from state0 at t = 0 (`InterceptProblem`), fires a constant thrust F along a
+free unit direction u_hat from t_s to t_e = t_s + D, then coasts to t_f, where it must be at
+r_target. Inertial Earth-centred equatorial frame, SI units (m, m/s, kg, s, N):
+
+    minimise    D  over t_s, D, u_hat(t)
+    subject to  dr/dt = v,  dv/dt = a_grav(r) + (F / m(t)) u_hat,  |u_hat| = 1  (t_s..t_e)
+                m(t) = m0 - mdot (t - t_s),  mdot = F / (Isp g0)   (constant mass flow)
+                [r, v](t_s) = coast of state0 from 0 to t_s
+                r(t_f) = r_target, r(t_f) the coast of [r, v](t_e) from t_e to t_f
+                0 <= D <= max_duration
+
+a_grav is two-body + J2 (`jaxlpm.dynamics.gravity.inertial_rhs`), the coasts are
+`jaxlpm.dynamics.propagation.propagate` (Dopri8). Fuel = mdot D (the mass is known in closed
+form, so it is no collocated state).
+
+For a given t_s the arc is an `OptimalControlProblem` in the pattern of
+`jaxlpm.problems.min_time`: independent variable s = (t - t_s) / T (T the initial-guess
+duration: time scaled by the burn), free final s_f = D / T (cost s_f, bounds
+[0, max_duration / T]), state [r / L, v / V] with L = 1e7 m, V = sqrt(mu / L), control u_hat
+with the path equality |u_hat|^2 - 1 = 0, on an LGL grid (`lgl(n)`: the paper's "n nodes",
+eq. 8-14), solved by the augmented-Lagrangian solver around Newton-KKT. Boundary conditions:
+the start state (exact, the coast to t_s) and the end position after the coast, replaced by its
+second-order Taylor model about the current iterate,
+    r_f + A dx + v_f dtau + (1/2) [H(dx, dx) + 2 dtau (dv_f/dx) dx + a_f dtau^2]
+(A = dr_f/dx_e by reverse-mode autodiff through the coast, H and dv_f/dx from the variational
+equations, dtau the change of the coast duration t_f - t_e), since the solver needs the
+boundary's Hessian and diffrax's adjoint gives no second derivatives. The model is rebuilt at
+each solution until the nonlinear terminal residual is below `tol_boundary`; at that fixed
+point values and first derivatives are exact, so it is a KKT point of the problem above.
+
+The burn start: the arc problem's optimal D*(t_s) has the derivative (envelope theorem)
+dD*/dt_s = T lambda . dc/dt_s, lambda the boundary multipliers, dc/dt_s = [-f(x_s) / scale,
+-v_f / L] (f the coast's right-hand side: a coast's derivative in its end time); t_s is the
+root of dD*/dt_s, found by secant steps (from eq. (2)'s start and a 1 s probe downhill, each
+arc solve warm-started from the last) kept inside t_s0 +- T/4. t_s is kept
+outside the collocated problem: as a constant state its LGL defects would be linearly
+dependent (the LGL D has rank n - 1 and a state whose rate depends on no state adds none),
+making the Newton-KKT matrix singular.
+
+Initial guess (the paper's eq. 2): the burn centred on the impulsive burn time t_b with the
+duration T = m0 |dv| / F, t_s0 = t_b - T / 2, direction along dv; nodal states: the coast from
+t_s plus the constant-acceleration increments (F / m0) u_hat (t - t_s) in velocity and half
+its time integral in position.
+"""
+
+from dataclasses import dataclass, field, replace
+
+import diffrax
+import jax
+import jax.numpy as jnp
+
+from .._validation import check_finite, check_shape, is_concrete, require_x64
+from ..collocation import Grid
+from ..constants import G0
+from ..dynamics.gravity import inertial_rhs
+from ..dynamics.propagation import propagate
+from ..problems.ocp import OptimalControlProblem
+from ..problems.transcription import pack, unpack
+from ..status import Status
+from .augmented_lagrangian import ALOptions, augmented_lagrangian
+from .newton import NewtonOptions
+from .impulsive import InterceptProblem
+
+LENGTH = 1.0e7            # m: length scale of the collocated state
+MIN_POINTS = 3
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class FiniteBurnProblem:
+    """The intercept (`InterceptProblem`: state0 at t = 0, t_f, r_target, gravity) flown with
+    a constant-thrust engine: thrust (N), mass m0 at the burn start (kg), specific impulse
+    isp (s), burn duration at most max_duration (s; inf: unbounded)."""
+
+    intercept: InterceptProblem
+    thrust: jax.Array
+    mass: jax.Array
+    isp: jax.Array
+    max_duration: jax.Array = field(default=float("inf"))
+
+    def replace(self, **kwargs) -> "FiniteBurnProblem":
+        return replace(self, **kwargs)
+
+    @property
+    def mass_rate(self):
+        """Propellant flow F / (Isp g0) (kg/s)."""
+        return self.thrust / (self.isp * G0)
+
+    def validate(self, t_impulse, dv_impulse) -> None:
+        """Raise ValueError naming what is wrong (concrete inputs)."""
+        ip = self.intercept
+        check_shape("intercept.state0", ip.state0, (6,))
+        check_shape("intercept.r_target", ip.r_target, (3,))
+        check_shape("dv_impulse", dv_impulse, (3,))
+        for name, value in (("intercept.state0", ip.state0), ("intercept.r_target",
+                            ip.r_target), ("dv_impulse", dv_impulse)):
+            check_finite(name, value)
+        for name in ("thrust", "mass", "isp"):
+            value = getattr(self, name)
+            check_shape(name, value, ())
+            if not float(check_finite(name, value)) > 0.0:
+                raise ValueError(f"{name} must be positive (N, kg, s), got {value}")
+        if not float(self.max_duration) > 0.0:
+            raise ValueError(f"max_duration must be positive (s), got {self.max_duration}")
+        t_b, t_f = float(check_finite("t_impulse", t_impulse)), float(ip.t_f)
+        if not 0.0 < t_b < t_f:
+            raise ValueError(f"t_impulse must lie in (0, t_f) = (0, {t_f}) s, got {t_b}")
+        if not float(jnp.linalg.norm(jnp.asarray(dv_impulse))) > 0.0:
+            raise ValueError("dv_impulse is zero: there is no burn to model")
+        half = float(self.mass * jnp.linalg.norm(jnp.asarray(dv_impulse)) / (2 * self.thrust))
+        if not (t_b - half > 0.0 and t_b + half < t_f):
+            raise ValueError(f"the eq. (2) burn [{t_b - half}, {t_b + half}] s must lie inside "
+                             f"(0, t_f = {t_f}) s: thrust {self.thrust} N is too weak for it")
+
+    def validity(self, t_impulse, dv_impulse):
+        """In-graph counterpart of `validate` for traced inputs."""
+        ip = self.intercept
+        half = self.mass * jnp.linalg.norm(dv_impulse) / (2 * self.thrust)
+        finite = (jnp.all(jnp.isfinite(ip.state0)) & jnp.all(jnp.isfinite(ip.r_target))
+                  & jnp.all(jnp.isfinite(dv_impulse)) & jnp.isfinite(t_impulse)
+                  & jnp.isfinite(self.thrust) & jnp.isfinite(self.mass)
+                  & jnp.isfinite(self.isp))
+        return (finite & (self.thrust > 0) & (self.mass > 0) & (self.isp > 0)
+                & (self.max_duration > 0) & (t_impulse - half > 0)
+                & (t_impulse + half < ip.t_f))
+
+
+@dataclass(frozen=True)
+class FiniteBurnOptions:
+    """Static settings (hashable). max_models: Taylor-model rebuilds per arc solve;
+    tol_boundary: max nonlinear terminal residual (scaled by L: 1e-10 = 1 mm); search: half
+    width of the burn-start bracket about eq. (2)'s t_s0 as a fraction of eq. (2)'s duration,
+    its secant iterations and tolerance (s); al: the augmented-Lagrangian settings of each
+    arc solve. Its tol_path is 1e-7, not the default 1e-9: the LGL defects ask the nodal
+    thrust accelerations' highest mode to cancel gravity's, which a constant-magnitude thrust
+    meets only by second-order wiggles of its direction, so | |u|^2 - 1 | stalls near 2e-8
+    (measured, 5 nodes; |u| is 1 to 1e-8); inner tol_optimality 1e-6 for the same reason."""
+
+    max_models: int = 8
+    tol_boundary: float = 1e-10
+    search_half_width: float = 0.25
+    search_iterations: int = 12
+    search_tol: float = 1e-3
+    al: ALOptions = field(default_factory=lambda: ALOptions(
+        tol_path=1e-7, inner=NewtonOptions(max_iterations=30, tol_optimality=1e-6)))
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class FiniteBurnSolution:
+    """Burn from t_start for duration (s); fuel = mdot * duration (kg); at the LGL nodes:
+    node_times (s), node_states [r, v] (n, 6; m, m/s, inertial), node_masses (kg),
+    node_directions (unit vectors, inertial). miss = |r(t_f) - r_target| (m) of the Dopri8
+    J2 coast from the collocated end state. duration_gradient = dD*/dt_s at t_start (s/s; 0
+    at the optimum). status (`Status`): SUCCESS, or the arc solve's failure (INFEASIBLE: no
+    burn within max_duration reaches r_target), MAX_ITERATIONS (the arc solve, the model
+    rebuilds or the t_s search), NONFINITE, INVALID_INPUT (traced bad input; outputs zeroed).
+    Residuals of the last arc solve (scaled units); search_iterations, arc_solves
+    (augmented-Lagrangian solves) and inner_iterations (Newton iterations) count the work."""
+
+    grid: Grid
+    t_start: jax.Array
+    duration: jax.Array
+    fuel: jax.Array
+    node_times: jax.Array
+    node_states: jax.Array
+    node_masses: jax.Array
+    node_directions: jax.Array
+    miss: jax.Array
+    duration_gradient: jax.Array
+    constraint_residual: jax.Array
+    path_residual: jax.Array
+    stationarity_residual: jax.Array
+    search_iterations: jax.Array
+    arc_solves: jax.Array
+    inner_iterations: jax.Array
+    status: jax.Array
+
+
+def _scales(p):
+    """SI [r, v] = scale * collocated [r, v]."""
+    return jnp.concatenate([jnp.full(3, LENGTH), jnp.full(3, jnp.sqrt(p["mu"] / LENGTH))])
+
+
+def _rate(x, p):
+    """Coast right-hand side f(x) (m/s, m/s^2)."""
+    return inertial_rhs(x, jnp.zeros(3), p["mu"], p["j2"], p["r_eq"])
+
+
+def _dynamics(s, x, u, data, p):
+    scale = _scales(p)
+    mass = p["mass"] - p["mass_rate"] * p["T"] * s
+    rate = inertial_rhs(x * scale, p["thrust"] / mass * u, p["mu"], p["j2"], p["r_eq"])
+    return p["T"] * rate / scale
+
+
+def _no_running_cost(s, x, u, data, p):
+    return 0.0 * s
+
+
+def _duration(x0, xf, sf, p):
+    return sf
+
+
+def _unit_direction(s, x, u, data, p):
+    return jnp.dot(u, u)[None] - 1.0
+
+
+def _boundary(x0, xf, sf, p):
+    """[start [r, v] (6), end position (3)], scaled; the end through its Taylor model."""
+    scale, model = _scales(p), p["model"]
+    dx = xf * scale - model["x_e"]
+    dtau = model["t_e"] - (p["t_s"] + p["T"] * sf)     # change of the coast duration
+    r_f = (model["r_f"] + model["A"] @ dx + model["v_f"] * dtau
+           + 0.5 * jnp.einsum("ijk,j,k->i", model["H"], dx, dx)
+           + dtau * model["dv_dx"] @ dx + 0.5 * model["a_f"] * dtau**2)
+    return jnp.concatenate([x0 - p["x_s"] / scale, (r_f - p["r_target"]) / LENGTH])
+
+
+def _coast_end(x_e, duration, p):
+    return propagate(x_e, duration, p["mu"], p["j2"], p["r_eq"])
+
+
+def _second_order_stm(x_e, duration, p):
+    """(Phi (6, 6), Psi (6, 6, 6)): first and second derivatives of the coast's final state
+    in its initial state, from the variational equations Phi' = J Phi, Psi' = J Psi +
+    f''(Phi, Phi) (J, f'' of the right-hand side by autodiff) integrated by Dopri8 at
+    rtol = atol = 1e-9 in the coast's scaled variables. Used only for the curvature of the
+    boundary model: it sets the outer convergence rate, not the converged point."""
+    scale = _scales(p)
+
+    def F(y):
+        return inertial_rhs(y * scale, jnp.zeros(3), p["mu"], p["j2"], p["r_eq"]) / scale
+
+    def rhs(t, Y, args):
+        y, P, Q = Y
+        J, Hf = jax.jacfwd(F)(y), jax.hessian(F)(y)
+        return (F(y), J @ P, jnp.einsum("ij,jkl->ikl", J, Q)
+                + jnp.einsum("imn,mk,nl->ikl", Hf, P, P))
+
+    Y0 = (x_e / scale, jnp.eye(6), jnp.zeros((6, 6, 6)))
+    sol = diffrax.diffeqsolve(
+        diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, duration, dt0=None, y0=Y0,
+        stepsize_controller=diffrax.PIDController(rtol=1e-9, atol=1e-9), max_steps=100_000,
+        throw=False)
+    _, P, Q = (leaf[-1] for leaf in sol.ys)
+    Phi = P * scale[:, None] / scale[None, :]
+    Psi = Q * scale[:, None, None] / (scale[None, :, None] * scale[None, None, :])
+    return Phi, Psi
+
+
+def _end_model(z, ocp, grid):
+    """The terminal coast's Taylor model at z, its scaled nonlinear residual, miss (m), ok."""
+    p = ocp.params
+    X, _, sf = unpack(z, ocp, grid)
+    x_e = X[-1] * _scales(p)
+    t_e = p["t_s"] + p["T"] * sf
+    end, ok = _coast_end(x_e, p["t_f"] - t_e, p)
+    A = jax.jacrev(lambda x: _coast_end(x, p["t_f"] - t_e, p)[0][:3])(x_e)
+    Phi, Psi = _second_order_stm(x_e, p["t_f"] - t_e, p)
+    model = {"r_f": end[:3], "v_f": end[3:], "A": A, "H": Psi[:3], "dv_dx": Phi[3:],
+             "a_f": _rate(end, p)[3:], "x_e": x_e, "t_e": t_e}
+    miss = jnp.linalg.norm(end[:3] - p["r_target"])
+    return model, miss / LENGTH, miss, ok
+
+
+def _arc_ocp(p, t_s, sf_guess, max_duration):
+    """The collocated arc problem for burn start t_s (s)."""
+    x_s, _ = propagate(p["state0"], t_s, p["mu"], p["j2"], p["r_eq"])
+    return OptimalControlProblem(
+        n_x=6, n_u=3, dynamics=_dynamics, running_cost=_no_running_cost, boundary=_boundary,
+        s0=jnp.asarray(0.0), sf=sf_guess, params=dict(p, t_s=t_s, x_s=x_s),
+        terminal_cost=_duration, free_final=True, path_equality=_unit_direction,
+        final_bounds=jnp.stack([0.0, max_duration / p["T"]]))
+
+
+def _guess_z(ocp, grid, u):
+    """Nodal states of eq. (2)'s burn: the coast from t_s plus the constant-acceleration
+    increments along u; directions u; s_f = 1."""
+    p = ocp.params
+    dt = 0.5 * p["T"] * (grid.points + 1.0)
+    coast, _ = propagate(p["x_s"], p["T"], p["mu"], p["j2"], p["r_eq"], ts=dt)
+    a = p["thrust"] / p["mass"]
+    rv = coast + jnp.concatenate([0.5 * a * dt[:, None] ** 2 * u, a * dt[:, None] * u], axis=1)
+    return pack(rv / _scales(p), jnp.tile(u, (grid.n, 1)), 1.0, ocp)
+
+
+def _solve_arc(p, grid, t_s, z, lam, max_duration, options):
+    """Minimum D for burn start t_s from (z, lam): the augmented-Lagrangian arc solve, its
+    terminal model rebuilt at each solution until the nonlinear residual is below
+    tol_boundary (at least one solve). Returns (z, lam, status, dD/dt_s (s/s), miss (m),
+    [residuals], solves, Newton iterations)."""
+    ocp0 = _arc_ocp(p, t_s, z[-1], max_duration)
+    model, resid, miss, ok = _end_model(z, ocp0, grid)
+
+    def step(c):
+        z, lam, model, k, _, _, _, inner, residuals = c
+        ocp = ocp0.replace(params=dict(ocp0.params, model=model), sf=z[-1])
+        res = augmented_lagrangian(ocp, grid, z, lam, options=options.al)
+        new_model, resid, miss, ok = _end_model(res.z, ocp0, grid)
+        finite = jnp.all(jnp.isfinite(res.z)) & jnp.isfinite(resid) & ok
+        keep = lambda new, old: jnp.where(finite, new, old)
+        status = jnp.where(finite, res.status, Status.NONFINITE).astype(jnp.int32)
+        new_res = jnp.stack([res.constraint_residual, res.path_residual,
+                             res.stationarity_residual])
+        return (keep(res.z, z), keep(res.multipliers, lam),
+                jax.tree_util.tree_map(keep, new_model, model), k + 1, status,
+                keep(resid, jnp.inf), keep(miss, jnp.inf), inner + res.inner_iterations,
+                keep(new_res, residuals))
+
+    def cond(c):
+        k, status, resid = c[3], c[4], c[5]
+        return (k == 0) | ((k < options.max_models) & (status == Status.SUCCESS)
+                           & (resid > options.tol_boundary))
+
+    status0 = jnp.where(ok, Status.SUCCESS, Status.NONFINITE).astype(jnp.int32)
+    init = (z, lam, model, jnp.asarray(0, jnp.int32), status0, resid, miss,
+            jnp.asarray(0, jnp.int32), jnp.full(3, jnp.inf))
+    z, lam, model, k, status, resid, miss, inner, residuals = jax.lax.while_loop(
+        cond, step, init)
+    status = jnp.where((status == Status.SUCCESS) & (resid > options.tol_boundary),
+                       Status.MAX_ITERATIONS, status).astype(jnp.int32)
+    # envelope theorem: dD*/dt_s = T lambda_b . dc_b/dt_s (module docstring)
+    dc = jnp.concatenate([-_rate(ocp0.params["x_s"], p) / _scales(p), -model["v_f"] / LENGTH])
+    return z, lam, status, p["T"] * jnp.dot(lam[-9:], dc), miss, residuals, k, inner
+
+
+def n_multipliers(grid) -> int:
+    """Equality multipliers of the arc problem: defects (n x 6) and boundary (6 + 3)."""
+    return 6 * grid.n + 9
+
+
+def _sanitized(problem, t_impulse, dv_impulse, valid):
+    """Finite stand-ins where `valid` is False (the outputs are zeroed afterwards)."""
+    ip = problem.intercept
+    pick = lambda x, default: jnp.where(valid, x, default)
+    ip = replace(ip, state0=pick(ip.state0, jnp.array([4.2e7, 0.0, 0.0, 0.0, 3.08e3, 0.0])),
+                 r_target=pick(ip.r_target, jnp.array([0.0, 4.2e7, 0.0])),
+                 t_f=pick(ip.t_f, 3.0e4))
+    problem = problem.replace(intercept=ip, thrust=pick(problem.thrust, 200.0),
+                              mass=pick(problem.mass, 800.0), isp=pick(problem.isp, 260.0),
+                              max_duration=pick(problem.max_duration, jnp.inf))
+    return problem, pick(t_impulse, 1.0e4), pick(dv_impulse, jnp.array([0.0, 10.0, 0.0]))
+
+
+def _finite_burn(problem, grid, t_impulse, dv_impulse, options: FiniteBurnOptions):
+    valid = problem.validity(t_impulse, dv_impulse)
+    problem, t_impulse, dv_impulse = _sanitized(problem, t_impulse, dv_impulse, valid)
+    ip = problem.intercept
+    dv = jnp.linalg.norm(dv_impulse)
+    T = problem.mass * dv / problem.thrust                         # eq. (2)
+    t_s0 = t_impulse - 0.5 * T
+    p = {"state0": ip.state0, "r_target": ip.r_target, "t_f": ip.t_f, "mu": ip.mu, "j2": ip.j2,
+         "r_eq": ip.r_eq, "thrust": problem.thrust, "mass": problem.mass,
+         "mass_rate": problem.mass_rate, "T": T}
+    half_width = options.search_half_width * T
+    lo, hi = t_s0 - half_width, t_s0 + half_width
+    z0 = _guess_z(_arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration), grid,
+                  dv_impulse / dv)
+
+    def cond(c):
+        k, t_a, _, t_b, _, _, _, st = c[:8]
+        return (k < 2) | ((k < options.search_iterations) & (st == Status.SUCCESS)
+                          & (jnp.abs(t_b - t_a) > options.search_tol))
+
+    def body(c):
+        k, t_a, g_a, t_b, g_b, z, lam, _, _, _, solves, inner = c
+        slope = (g_b - g_a) / jnp.where(t_b != t_a, t_b - t_a, 1.0)
+        secant = jnp.where(slope > 0, t_b - g_b / jnp.where(slope > 0, slope, 1.0),
+                           t_b - jnp.sign(g_b) * 0.5 * half_width)
+        probe = t_b - jnp.sign(g_b) * 1.0                # 1 s downhill of eq. (2)'s start
+        t_new = jnp.clip(jnp.select([k == 0, k == 1], [t_s0, probe], secant), lo, hi)
+        z, lam, st, g, miss, res, n_solves, n_inner = _solve_arc(
+            p, grid, t_new, z, lam, problem.max_duration, options)
+        return (k + 1, t_b, g_b, t_new, g, z, lam, st, miss, res, solves + n_solves,
+                inner + n_inner)
+
+    zero = jnp.asarray(0.0)
+    init = (jnp.asarray(0, jnp.int32), t_s0, zero, t_s0, zero, z0,
+            jnp.zeros(n_multipliers(grid)), jnp.asarray(Status.SUCCESS, jnp.int32), zero,
+            jnp.zeros(3), jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32))
+    k, t_a, _, t_s, g, z, lam, status, miss, res, n_solves, inner = jax.lax.while_loop(
+        cond, body, init)
+    status = jnp.where((status == Status.SUCCESS) & (jnp.abs(t_s - t_a) > options.search_tol),
+                       Status.MAX_ITERATIONS, status)
+    status = jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32)
+    ocp = _arc_ocp(p, t_s, z[-1], problem.max_duration)
+    X, U, sf = unpack(z, ocp, grid)
+    duration = T * sf
+    node_times = t_s + 0.5 * duration * (grid.points + 1.0)
+
+    def keep(x):
+        return jnp.where(valid & jnp.all(jnp.isfinite(x)), x, jnp.zeros_like(x))
+
+    return FiniteBurnSolution(
+        grid=grid, t_start=keep(t_s), duration=keep(duration),
+        fuel=keep(problem.mass_rate * duration), node_times=keep(node_times),
+        node_states=keep(X * _scales(p)),
+        node_masses=keep(problem.mass - problem.mass_rate * (node_times - t_s)),
+        node_directions=keep(U), miss=keep(miss), duration_gradient=keep(g),
+        constraint_residual=keep(res[0]), path_residual=keep(res[1]),
+        stationarity_residual=keep(res[2]), search_iterations=k, arc_solves=n_solves,
+        inner_iterations=inner, status=status)
+
+
+_compiled = jax.jit(_finite_burn, static_argnames="options")
+
+
+def finite_burn(problem: FiniteBurnProblem, grid: Grid, t_impulse, dv_impulse,
+                options: FiniteBurnOptions = FiniteBurnOptions()) -> FiniteBurnSolution:
+    """Minimum-duration finite burn (module docstring) on an LGL grid, initialised from the
+    impulsive burn (t_impulse (s), dv_impulse (m/s, inertial)) by the paper's eq. (2).
+    jit-compiled once per grid size for concrete inputs; concrete bad input raises ValueError,
+    traced bad input gives status INVALID_INPUT and zeroed outputs."""
+    require_x64()
+    if not isinstance(grid, Grid) or grid.scheme != "LGL":
+        raise ValueError(f"the burn arc is collocated on an LGL grid (lgl(n)), got {grid!r:.60}")
+    if grid.n < MIN_POINTS:
+        raise ValueError(f"a finite burn needs at least {MIN_POINTS} LGL nodes, got {grid.n}")
+    t_impulse = jnp.asarray(t_impulse, jnp.float64)
+    dv_impulse = jnp.asarray(dv_impulse, jnp.float64)
+    if is_concrete(problem, t_impulse, dv_impulse):
+        problem.validate(t_impulse, dv_impulse)
+        return _compiled(problem, grid, t_impulse, dv_impulse, options)
+    return _finite_burn(problem, grid, t_impulse, dv_impulse, options)
