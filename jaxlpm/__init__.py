@@ -20,6 +20,11 @@ from .solvers import (ALOptions, MinimumTimeSolution, NewtonOptions, Solution,  
 from .solvers.lqr import Flight, finite_horizon_lqr, hcw_lqr, infinite_horizon_flight  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
 from .status import Status, describe  # noqa: E402
+from .collocation.segments import SegmentedMesh, segmented_lgr  # noqa: E402
+from .problems.fuel_optimal import FuelOptimalTransfer  # noqa: E402
+from .solvers.fuel_optimal import (FuelOptimalSolution, fuel_optimal_transfer,  # noqa: E402
+                                   indirect_fuel_optimal, refine_fuel_optimal)
+from .solvers.homotopy import HomotopyOptions  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -30,4 +35,6 @@ __all__ = [
     "ALOptions", "MinimumTimeSolution", "MinimumTimeTransfer", "augmented_lagrangian",
     "min_time_transfer",
     "CareSolution", "Flight", "care", "finite_horizon_lqr", "hcw_lqr", "infinite_horizon_flight",
+    "FuelOptimalSolution", "FuelOptimalTransfer", "HomotopyOptions", "SegmentedMesh",
+    "fuel_optimal_transfer", "indirect_fuel_optimal", "refine_fuel_optimal", "segmented_lgr",
 ]

@@ -1,5 +1,6 @@
 """Small dense linear algebra shared by the solvers."""
 
+import jax
 import jax.numpy as jnp
 
 # A system is called singular below this reciprocal condition number: at 1e-13 a float64
@@ -48,3 +49,31 @@ def qr_rcond(r):
     d = jnp.abs(jnp.diagonal(r))
     top = jnp.max(d)
     return jnp.where(top > 0, jnp.min(d) / jnp.where(top > 0, top, 1.0), 0.0)
+
+
+def dense_solve(a, b):
+    """Solve a x = b (a (k, k), b (k,) or (k, m)) by Gaussian elimination with partial pivoting
+    in plain array operations (one `lax.fori_loop` over the k columns): no LAPACK call, so a
+    vmapped batch of small systems cannot meet jaxlib's CPU batched-LAPACK thread-pool
+    deadlock (see `jaxlpm._cpu_runtime`). For k up to ~100."""
+    k = a.shape[-1]
+    vec = b.ndim == 1
+    m = jnp.concatenate([a, b[:, None] if vec else b], axis=1)
+    rows = jnp.arange(k)
+
+    def eliminate(j, m):
+        p = jnp.argmax(jnp.where(rows >= j, jnp.abs(m[:, j]), -1.0))
+        m = m.at[jnp.stack([j, p])].set(m[jnp.stack([p, j])])
+        pivot = m[j, j]
+        factor = jnp.where(rows > j, m[:, j] / jnp.where(pivot != 0, pivot, 1.0), 0.0)
+        return m - factor[:, None] * m[j][None, :]
+
+    m = jax.lax.fori_loop(0, k, eliminate, m)
+    u, y = m[:, :k], m[:, k:]
+
+    def back(i, x):
+        j = k - 1 - i
+        return x.at[j].set((y[j] - u[j] @ x) / u[j, j])
+
+    x = jax.lax.fori_loop(0, k, back, jnp.zeros_like(y))
+    return x[:, 0] if vec else x

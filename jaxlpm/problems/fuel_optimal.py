@@ -1,0 +1,223 @@
+"""Fuel-optimal relative transfer with bounded thrust on HCW, and its energy-to-fuel smoothing
+(Yue & Duan 2016, eq. 18-22 and 31-34; Bertrand & Epenoy 2002, "New smoothing techniques for
+solving bang-bang optimal control problems", Optim. Control Appl. Meth. 23, 171-197).
+
+    minimise    J_eps = (T_max / m) int_0^{t_f} [ w - eps w (1 - w) ] dt,   w = |u| / u_max
+    subject to  x_dot = A_HCW x + B u,  |u| <= u_max = T_max / m,  x(0) = x0,  x(t_f) = xf
+    LVLH frame (x radial out, y along-track, z orbit normal); m, m/s, m/s^2, s; T_max in N,
+    m in kg held constant in the dynamics (the paper's eq. 1 assumption); t_f fixed.
+
+eps = 1 is the energy-like problem (J_1 = int |u|^2 / u_max dt, with the thrust bound),
+eps = 0 the fuel (Delta-v) problem, J_0 = int |u| dt. For 0 < eps <= 1 the integrand
+(1 - eps) w + eps w^2 is strictly convex in w. With the primer vector p = -lambda_v (the
+velocity costate, scaled so that the cost rate is u_max (.) and p . u / u_max its pairing)
+and S = |p|, Pontryagin's minimum gives the direction p / S and the throttle (paper eq. 33-34
+with the switching function rho = 1 - S):
+
+    w = 0 if rho > eps,   w = 1 if rho < -eps,   w = (eps - rho) / (2 eps) otherwise.
+
+The fuel mass is reported by the rocket equation m (1 - exp(-Delta v / (Isp g0))) (the paper's
+eq. 2 is its first-order form F dt / (Isp g0), larger by a relative Delta v / (2 Isp g0)).
+
+Inside the solver: s = n t (the chief's angle), lengths in L = max(|r0|, |rf|, 1 m),
+accelerations in L n^2; `condensed_lgr` transcribes x' = A x + B u on a segmented LGR mesh and
+eliminates the states, so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i.
+"""
+
+from dataclasses import dataclass, replace
+
+import jax
+import jax.numpy as jnp
+
+from .._validation import check_finite, check_shape, is_concrete
+from ..constants import G0
+from ..dynamics import hcw_matrix
+from ..linalg import dense_solve
+from ..orbits import KeplerOrbit
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class FuelOptimalTransfer:
+    """See the module docstring. duration (s), thrust_max (N), mass (kg), isp (s)."""
+
+    orbit: KeplerOrbit
+    x0: jax.Array
+    xf: jax.Array
+    duration: jax.Array
+    thrust_max: jax.Array
+    mass: jax.Array
+    isp: jax.Array
+
+    def replace(self, **kwargs) -> "FuelOptimalTransfer":
+        return replace(self, **kwargs)
+
+    @property
+    def max_acceleration(self):
+        """u_max = T_max / m (m/s^2)."""
+        return self.thrust_max / self.mass
+
+    def validate(self) -> None:
+        """Raise ValueError naming what is wrong and what is allowed (concrete inputs)."""
+        check_shape("x0", self.x0, (6,))
+        check_shape("xf", self.xf, (6,))
+        check_finite("x0", self.x0)
+        check_finite("xf", self.xf)
+        if float(check_finite("orbit.e", self.orbit.e)) != 0.0:
+            raise ValueError(f"fuel-optimal transfers use the HCW equations: the chief must be "
+                             f"circular (orbit.e = 0), got e = {self.orbit.e}")
+        if not float(check_finite("orbit.a", self.orbit.a)) > 0.0:
+            raise ValueError(f"orbit.a must be a positive radius in m, got {self.orbit.a}")
+        for name, unit in (("duration", "s"), ("thrust_max", "N"), ("mass", "kg"),
+                           ("isp", "s")):
+            value = getattr(self, name)
+            check_shape(name, value, ())
+            if not float(check_finite(name, value)) > 0.0:
+                raise ValueError(f"{name} must be positive ({unit}), got {value}")
+        if bool(jnp.all(self.x0 == self.xf)):
+            raise ValueError("x0 equals xf: the fuel-optimal transfer is no thrust at all")
+
+    def validity(self):
+        """In-graph validity flag for traced inputs (the checks of `validate`)."""
+        o = self.orbit
+        leaves = [self.x0, self.xf, o.a, o.e, self.duration, self.thrust_max, self.mass,
+                  self.isp]
+        finite = jnp.all(jnp.stack([jnp.all(jnp.isfinite(v)) for v in leaves]))
+        return (finite & (o.e == 0.0) & (o.a > 0.0) & (self.duration > 0.0)
+                & (self.thrust_max > 0.0) & (self.mass > 0.0) & (self.isp > 0.0)
+                & jnp.any(self.x0 != self.xf))
+
+    def sanitized(self, valid):
+        """A harmless copy where `valid` is False (an invalid member of a batch)."""
+        o = self.orbit
+        pick = lambda v, safe: jnp.where(valid, v, safe)  # noqa: E731
+        return self.replace(
+            orbit=o.replace(e=pick(o.e, 0.0), a=pick(o.a, 7.0e6)),
+            x0=pick(self.x0, 0.0),
+            xf=pick(self.xf, jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0])),
+            duration=pick(self.duration, 5000.0), thrust_max=pick(self.thrust_max, 1.0),
+            mass=pick(self.mass, 100.0), isp=pick(self.isp, 300.0))
+
+
+def check_fuel_problem(problem: FuelOptimalTransfer) -> None:
+    """Validate at the Python boundary when the inputs are concrete."""
+    if not isinstance(problem, FuelOptimalTransfer):
+        raise ValueError(f"problem must be a FuelOptimalTransfer, got {type(problem).__name__}")
+    if is_concrete(problem):
+        problem.validate()
+
+
+def length_scale(problem: FuelOptimalTransfer):
+    """L = max(|r0|, |rf|, 1 m)."""
+    return jnp.maximum(jnp.maximum(jnp.linalg.norm(problem.x0[:3]),
+                                   jnp.linalg.norm(problem.xf[:3])), 1.0)
+
+
+def state_scale(problem: FuelOptimalTransfer):
+    """SI state = state_scale * the solver's state ([L] * 3, [L n] * 3)."""
+    L, n = length_scale(problem), problem.orbit.mean_motion
+    return jnp.concatenate([jnp.full(3, L), jnp.full(3, L * n)])
+
+
+def rocket_fuel(dv, problem: FuelOptimalTransfer):
+    """Propellant mass (kg) for a Delta-v (m/s): m (1 - exp(-dv / (Isp g0)))."""
+    return problem.mass * -jnp.expm1(-dv / (problem.isp * G0))
+
+
+def smoothed_cost(w, eps):
+    """Integrand per u_max of the smoothed cost: w - eps w (1 - w) (paper eq. 31)."""
+    return w - eps * w * (1.0 - w)
+
+
+def throttle(S, eps):
+    """The minimiser w in [0, 1] of smoothed_cost(w) - S w: clip((S - 1 + eps) / (2 eps), 0, 1)
+    (paper eq. 33 with rho = 1 - S)."""
+    return jnp.clip((S - 1.0 + eps) / (2.0 * eps), 0.0, 1.0)
+
+
+def pointwise_control(p, eps):
+    """u / u_max = throttle(|p|) p / |p| for a primer vector p (3,); smooth at p = 0 for
+    eps >= 1 (where it is p / 2 for |p| < 2) and zero there otherwise."""
+    S2 = jnp.dot(p, p)
+    safe = S2 > 0.0
+    S = jnp.sqrt(jnp.where(safe, S2, 1.0))
+    ratio = jnp.where(safe, throttle(S, eps) / S, jnp.where(eps >= 1.0, 0.5 / eps, 0.0))
+    return ratio * p
+
+
+def hcw_input_matrices():
+    """(A, B) of x' = A x + B u in the solver's units (s = n t, accelerations in L n^2)."""
+    B = jnp.concatenate([jnp.zeros((3, 3)), jnp.eye(3)])
+    return hcw_matrix(1.0), B
+
+
+def hcw_flow(tau):
+    """exp(A tau) of `hcw_input_matrices`' A (s = n t), in closed form (Clohessy & Wiltshire
+    1960; Vallado, Fundamentals of Astrodynamics, 4th ed., eq. 6-66), state [x, y, z, vx, vy,
+    vz]: no LAPACK call (the matrix exponential's Pade solve is one), exact for any tau."""
+    c, s = jnp.cos(tau), jnp.sin(tau)
+    z = 0.0 * tau
+    return jnp.array([
+        [4.0 - 3.0 * c, z, z, s, 2.0 * (1.0 - c), z],
+        [6.0 * (s - tau), z + 1.0, z, -2.0 * (1.0 - c), 4.0 * s - 3.0 * tau, z],
+        [z, z, c, z, z, s],
+        [3.0 * s, z, z, c, 2.0 * s, z],
+        [-6.0 * (1.0 - c), z, z, -2.0 * s, 4.0 * c - 3.0, z],
+        [z, z, -s, z, z, c],
+    ])
+
+
+def _segment_maps(A, B, grid, h):
+    """One LGR segment of half length h: the state rows X_r (n, n_x) after its first point,
+    X_r = P_rows x_start + G_rows U, from the defects D X = h (A X_c + B U) (Garg et al. 2010)."""
+    n, n_x, n_u = grid.n, A.shape[0], B.shape[1]
+    d0, Dr = grid.D[:, 0], grid.D[:, 1:]
+    shift = jnp.eye(n, k=-1)
+    e0 = jnp.zeros(n).at[0].set(1.0)
+    eye = jnp.eye(n_x)
+    M = jnp.kron(Dr, eye) - h * jnp.kron(shift, A)
+    rhs_x = -jnp.kron(d0[:, None], eye) + h * jnp.kron(e0[:, None], A)
+    rhs_u = h * jnp.kron(jnp.eye(n), B)
+    sol = dense_solve(M, jnp.concatenate([rhs_x, rhs_u], axis=1))
+    P = sol[:, :n_x].reshape(n, n_x, n_x)
+    G = sol[:, n_x:].reshape(n, n_x, n, n_u)
+    return P, G
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class CondensedLGR:
+    """Segmented LGR transcription of x' = A x + B u with the states eliminated.
+
+    P (K, n, n_x, n_x), G (K, n, n_x, n, n_u): state rows after each segment's first point,
+    X_r,k = P_k x_k + G_k U_k (the last row is the next segment's first state x_{k+1});
+    Phi (n_x, n_x) and E (K, n, n_x, n_u): x_K = Phi x_0 + sum_{k,i} E_{k,i} U_{k,i}.
+    """
+
+    P: jax.Array
+    G: jax.Array
+    Phi: jax.Array
+    E: jax.Array
+
+    def states(self, x0, U):
+        """All state rows (K, n + 1, n_x) (first point, then X_r) for controls U (K, n, n_u)."""
+        def step(x, pg):
+            P, G, u = pg
+            rows = P @ x + jnp.einsum("iajb,jb->ia", G, u)
+            return rows[-1], jnp.concatenate([x[None], rows])
+        _, X = jax.lax.scan(step, x0, (self.P, self.G, U))
+        return X
+
+
+def condensed_lgr(A, B, mesh) -> CondensedLGR:
+    """Transcribe x' = A x + B u on a `SegmentedMesh` and eliminate the states (see
+    `CondensedLGR`); continuity across segments is exact (shared break states)."""
+    P, G = jax.vmap(lambda h: _segment_maps(A, B, mesh.grid, h))(mesh.half_lengths)
+    P_end, G_end = P[:, -1], G[:, -1]                      # (K, n_x, n_x), (K, n_x, n, n_u)
+
+    def back(Psi, pg):
+        P_k, G_k = pg
+        return Psi @ P_k, jnp.einsum("ab,bjc->jac", Psi, G_k)
+
+    Phi, E = jax.lax.scan(back, jnp.eye(A.shape[0]), (P_end, G_end), reverse=True)
+    return CondensedLGR(P=P, G=G, Phi=Phi, E=E)

@@ -1,0 +1,347 @@
+"""Fuel-optimal bounded-thrust transfers on HCW (`jaxlpm.problems.fuel_optimal`) by segmented
+LGR collocation and the energy-to-fuel homotopy (`jaxlpm.solvers.homotopy`), with mesh
+refinement at the switching times (Yue & Duan 2016's pipeline: an energy-optimal Radau
+pseudospectral solution, then the homotopy to the bang-bang fuel optimum).
+
+`fuel_optimal_transfer(problem, mesh)`: one mesh (jit; vmap over problems and meshes of one
+shape). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method, shooting on the
+costates with the smoothed switching law, continued in eps from the LGR costates.
+`refine_fuel_optimal(problems, segments, points)`: host-side passes over meshes with a break at
+every switching time of the previous solution (`aligned_breaks`), the first mesh uniform, until
+the fuel changes by less than `fuel_tol` (relative); a batch of problems is one vmapped call
+per pass.
+
+Switching function (the primer vector from the costates): on HCW the costate obeys
+lambda' = -A^T lambda exactly, and the final-state multiplier nu gives the primer
+p(s) = -B^T exp(A^T (s_f - s)) nu, |p| the switching function (threshold 1; rho = 1 - |p| in the
+paper's eq. 34). At the collocation points the estimates p_i = -E_i^T nu / c_i (the LGR costate
+estimates, Garg et al. 2010) agree with it to the mesh's accuracy. Burn arcs are where |p| > 1.
+"""
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._validation import is_concrete, require_x64
+from ..collocation import lg_nodes_weights
+from ..collocation.segments import SegmentedMesh, aligned_breaks, segmented_lgr, uniform_breaks
+from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, condensed_lgr,
+                                     hcw_flow, hcw_input_matrices, length_scale, rocket_fuel,
+                                     state_scale)
+from ..status import Status, describe
+from .homotopy import HomotopyOptions, controls, energy_to_fuel, primers
+
+MIN_POINTS = 3
+MAX_SWITCHES = 16          # switching times found per solution (burn arcs = switches / 2)
+SCAN_POINTS = 20001        # samples of |p(t)| searched for switches (then bisection)
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class FuelOptimalSolution:
+    """Solution of a `FuelOptimalTransfer` in SI (LVLH, m, m/s, m/s^2, s, kg).
+
+    breaks (K + 1,) segment breaks in s; node_times (K, n); node_controls (K, n, 3) m/s^2;
+    node_throttle (K, n) |u| / u_max; node_primers (K, n, 3) p_i (dimensionless, |p| = 1 is
+    the switching threshold); state_times (K, n + 1), states (K, n + 1, 6)
+    dv (m/s) = int |u| dt, fuel (kg, rocket equation); energy_*: the eps = 1 (energy-like)
+    solution on the same mesh, energy_cost its 1/2 int |u|^2 dt (m^2/s^3); eps the smoothing
+    reached; multipliers nu (solver units; p(s) above); terminal_error [position m,
+    velocity m/s] of the collocated final state; status, homotopy_steps, failed_steps,
+    newton_iterations.
+    """
+
+    problem: FuelOptimalTransfer
+    breaks: jax.Array
+    node_times: jax.Array
+    node_controls: jax.Array
+    node_throttle: jax.Array
+    node_primers: jax.Array
+    state_times: jax.Array
+    states: jax.Array
+    dv: jax.Array
+    fuel: jax.Array
+    energy_node_controls: jax.Array
+    energy_dv: jax.Array
+    energy_fuel: jax.Array
+    energy_cost: jax.Array
+    eps: jax.Array
+    multipliers: jax.Array
+    energy_multipliers: jax.Array
+    terminal_error: jax.Array
+    energy_terminal_error: jax.Array
+    status: jax.Array
+    homotopy_steps: jax.Array
+    failed_steps: jax.Array
+    newton_iterations: jax.Array
+
+    @property
+    def message(self) -> str:
+        """Status in words (unbatched)."""
+        st = Status(int(self.status))
+        if st == Status.STALLED:
+            return (f"homotopy stalled: eps could not be driven below {float(self.eps):.3g} "
+                    f"(the continuation step fell below its minimum); the result is the "
+                    f"eps = {float(self.eps):.3g} solution")
+        if st == Status.INFEASIBLE:
+            return ("infeasible: the thrust bound cannot reach the target in the transfer time "
+                    "(full thrust everywhere, or the dual ascent diverged); terminal_error is "
+                    "the miss")
+        return describe(st)
+
+    def primer(self, t):
+        """Primer vector p(t) (3,) from the costates (module docstring), t in s."""
+        n = self.problem.orbit.mean_motion
+        _, B = hcw_input_matrices()
+        flow = hcw_flow(n * (self.problem.duration - t))
+        return -B.T @ flow.T @ self.multipliers
+
+    def switching_function(self, t):
+        """rho(t) = 1 - |p(t)| (paper eq. 34): the engine fires where rho < 0."""
+        return 1.0 - jnp.linalg.norm(self.primer(t))
+
+
+def _fuel_optimal_transfer(problem, mesh, options):
+    valid = problem.validity()
+    problem = problem.sanitized(valid)
+    o = problem.orbit
+    n = o.mean_motion
+    scale = state_scale(problem)
+    umax = problem.max_acceleration / (length_scale(problem) * n**2)
+    sf = n * problem.duration
+    # the mesh is given on [0, 1] of the transfer (fractions of t_f): s = s_f * fraction
+    m = SegmentedMesh(breaks=mesh.breaks * sf, grid=mesh.grid)
+    A, B = hcw_input_matrices()
+    cond = condensed_lgr(A, B, m)
+    K, npts = m.n_segments, m.grid.n
+    x0, xf = problem.x0 / scale, problem.xf / scale
+    d = xf - cond.Phi @ x0
+    E = umax * cond.E.reshape(K * npts, 6, 3)
+    c = umax * m.weights.reshape(-1)
+    res = energy_to_fuel(E, c, d, options=options)
+
+    def outputs(nu, eps):
+        v = controls(nu, E, c, eps)
+        U = (umax * v).reshape(K, npts, 3)
+        X = cond.states(x0, U)
+        dv_nd = jnp.sum(c * jnp.linalg.norm(v, axis=1))
+        miss = (X[-1, -1] - xf) * scale
+        err = jnp.stack([jnp.linalg.norm(miss[:3]), jnp.linalg.norm(miss[3:])])
+        return v, U, X, dv_nd * length_scale(problem) * n, err
+
+    v, U, X, dv, err = outputs(res.nu, res.eps)
+    ve, Ue, _, dve, erre = outputs(res.nu_energy, jnp.asarray(1.0, d.dtype))
+    a_si = length_scale(problem) * n**2
+    energy_cost = 0.5 * jnp.sum(c * jnp.sum((umax * ve) ** 2, axis=1) / umax) * a_si**2 / n
+
+    def keep(x):
+        return jnp.where(valid, x, jnp.zeros_like(x))
+
+    return FuelOptimalSolution(
+        problem=problem, breaks=keep(m.breaks / n), node_times=keep(m.points / n),
+        node_controls=keep(U * a_si),
+        node_throttle=keep(jnp.linalg.norm(v, axis=1).reshape(K, npts)),
+        node_primers=keep(primers(res.nu, E, c).reshape(K, npts, 3)),
+        state_times=keep(m.state_points / n), states=keep(X * scale), dv=keep(dv),
+        fuel=keep(rocket_fuel(dv, problem)), energy_node_controls=keep(Ue * a_si),
+        energy_dv=keep(dve), energy_fuel=keep(rocket_fuel(dve, problem)),
+        energy_cost=keep(energy_cost), eps=res.eps, multipliers=keep(res.nu),
+        energy_multipliers=keep(res.nu_energy), terminal_error=keep(err),
+        energy_terminal_error=keep(erre),
+        status=jnp.where(valid, res.status, Status.INVALID_INPUT).astype(jnp.int32),
+        homotopy_steps=res.steps, failed_steps=res.failed_steps,
+        newton_iterations=res.newton_iterations)
+
+
+_compiled = jax.jit(_fuel_optimal_transfer, static_argnames="options")
+
+
+def _check_mesh(mesh):
+    if not isinstance(mesh, SegmentedMesh):
+        raise ValueError(f"mesh must be a SegmentedMesh (segmented_lgr(breaks, n)), got "
+                         f"{type(mesh).__name__}")
+    if mesh.grid.n < MIN_POINTS:
+        raise ValueError(f"fuel-optimal transfers need at least {MIN_POINTS} LGR points per "
+                         f"segment, got {mesh.grid.n}")
+    if is_concrete(mesh.breaks):
+        b = np.asarray(mesh.breaks)
+        if b.ndim == 1 and not (abs(b[0]) < 1e-15 and abs(b[-1] - 1.0) < 1e-15):
+            raise ValueError(f"mesh breaks are fractions of the transfer time: they must run "
+                             f"from 0 to 1, got [{b[0]}, {b[-1]}]")
+
+
+def fuel_optimal_transfer(problem: FuelOptimalTransfer, mesh: SegmentedMesh,
+                          options: HomotopyOptions = HomotopyOptions()) -> FuelOptimalSolution:
+    """Solve on one segmented LGR mesh whose breaks are fractions of the transfer time (from
+    0 to 1). jit-compiled once per mesh shape and options; vmap-able over problems and
+    meshes. Concrete bad input raises ValueError; traced bad input gives INVALID_INPUT."""
+    require_x64()
+    check_fuel_problem(problem)
+    _check_mesh(mesh)
+    if is_concrete(problem, mesh):
+        return _compiled(problem, mesh, options)
+    return _fuel_optimal_transfer(problem, mesh, options)
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class IndirectSolution:
+    """Outcome of `indirect_fuel_optimal` (SI; see `FuelOptimalSolution` for the fields)."""
+
+    multipliers: jax.Array
+    eps: jax.Array
+    dv: jax.Array
+    fuel: jax.Array
+    terminal_error: jax.Array
+    status: jax.Array
+    homotopy_steps: jax.Array
+    newton_iterations: jax.Array
+
+
+def _indirect(problem, breaks, nu0, nodes, weights, options):
+    n = problem.orbit.mean_motion
+    scale, L = state_scale(problem), length_scale(problem)
+    umax = problem.max_acceleration / (L * n**2)
+    sf = n * problem.duration
+    _, B = hcw_input_matrices()
+    h = 0.5 * jnp.diff(breaks * sf)
+    s = (breaks[:-1, None] * sf + h[:, None] * (nodes[None] + 1.0)).reshape(-1)
+    W = (h[:, None] * weights[None]).reshape(-1)
+    flow = jax.vmap(lambda si: hcw_flow(sf - si) @ B)(s)
+    E, c = umax * flow * W[:, None, None], umax * W
+    x0, xf = problem.x0 / scale, problem.xf / scale
+    d = xf - hcw_flow(sf) @ x0
+    res = energy_to_fuel(E, c, d, nu0, options)
+    v = controls(res.nu, E, c, res.eps)
+    dv = jnp.sum(c * jnp.linalg.norm(v, axis=1)) * L * n
+    miss = (jnp.einsum("iab,ib->a", E, v) - d) * scale
+    return IndirectSolution(
+        multipliers=res.nu, eps=res.eps, dv=dv, fuel=rocket_fuel(dv, problem),
+        terminal_error=jnp.stack([jnp.linalg.norm(miss[:3]), jnp.linalg.norm(miss[3:])]),
+        status=res.status, homotopy_steps=res.steps, newton_iterations=res.newton_iterations)
+
+
+_indirect_compiled = jax.jit(_indirect, static_argnames="options")
+
+
+def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points: int = 8,
+                          options: HomotopyOptions = HomotopyOptions()) -> IndirectSolution:
+    """The indirect method (Yue & Duan 2016 §2.2): Pontryagin's conditions with the smoothed
+    switching law, shooting on the costates, continued in eps from eps = 1.
+
+    The costate of HCW is lambda(s) = exp(A^T (s_f - s)) nu (`hcw_flow`), so shooting on
+    lambda(0) is shooting on nu (one-to-one); the control is the law of
+    `jaxlpm.problems.fuel_optimal` on
+    the primer p(s) = -B^T lambda_v(s), and the shooting residual
+    x(s_f) - xf = exp(A s_f) x0 + int exp(A (s_f - s)) B u(p(s)) ds - xf is integrated by
+    Gauss-Legendre quadrature (`points` nodes) on panels with the given breaks (fractions of
+    t_f from 0 to 1; put breaks at the switching times so each panel is smooth). nu0: the
+    first guess (the LGR solution's `energy_multipliers`: the paper's initialisation from the
+    pseudospectral costates). Shares the homotopy and Newton solver of the direct method: the
+    two differ only in how the state equation is discretised (exact flow and quadrature here,
+    LGR collocation there)."""
+    require_x64()
+    check_fuel_problem(problem)
+    b = np.asarray(breaks, dtype=np.float64)
+    if b.ndim != 1 or b.size < 2 or not np.all(np.diff(b) > 0) or b[0] != 0.0 or b[-1] != 1.0:
+        raise ValueError("breaks must increase strictly from 0 to 1 (fractions of t_f)")
+    if isinstance(points, bool) or not isinstance(points, int) or points < 1:
+        raise ValueError(f"points must be a positive integer, got {points!r}")
+    nodes, weights = lg_nodes_weights(points)
+    nu0 = jnp.zeros(6) if nu0 is None else jnp.asarray(nu0)
+    if nu0.shape != (6,):
+        raise ValueError(f"nu0 must have shape (6,), got {nu0.shape}")
+    return _indirect_compiled(problem, jnp.asarray(b), nu0, jnp.asarray(nodes),
+                              jnp.asarray(weights), options)
+
+
+@jax.jit
+def _primer_norm(sol, ts):
+    return jax.vmap(lambda t: jnp.linalg.norm(sol.primer(t)))(ts)
+
+
+def switching_times(sol: FuelOptimalSolution, max_switches: int = MAX_SWITCHES):
+    """Times (s, ascending NumPy array) where |p(t)| crosses 1 (unbatched solution): a scan
+    of SCAN_POINTS samples, then 60 bisections of each bracketed crossing."""
+    T = float(sol.problem.duration)
+    ts = np.linspace(0.0, T, SCAN_POINTS)
+    f = np.asarray(_primer_norm(sol, jnp.asarray(ts))) - 1.0
+    idx = np.nonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)[0][:max_switches]
+    lo, hi = ts[idx], ts[idx + 1]
+    flo = f[idx]
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        fm = np.asarray(_primer_norm(sol, jnp.asarray(mid))) - 1.0 if mid.size else mid
+        left = np.sign(fm) == np.sign(flo)
+        lo, hi, flo = np.where(left, mid, lo), np.where(left, hi, mid), np.where(left, fm, flo)
+    return 0.5 * (lo + hi)
+
+
+def burn_arcs(sol: FuelOptimalSolution):
+    """[(start, end)] (s) of the burns: the arcs where |p(t)| > 1 (unbatched solution)."""
+    T = float(sol.problem.duration)
+    sw = switching_times(sol)
+    edges = np.concatenate([[0.0], sw, [T]])
+    mids = 0.5 * (edges[:-1] + edges[1:])
+    on = np.asarray(_primer_norm(sol, jnp.asarray(mids))) > 1.0
+    return [(float(a), float(b)) for a, b, burn in zip(edges[:-1], edges[1:], on) if burn]
+
+
+def _member(tree, i):
+    return jax.tree_util.tree_map(lambda x: x[i], tree)
+
+
+@dataclass(frozen=True)
+class RefinementPass:
+    """One pass of `refine_fuel_optimal`: the (batched) solution on that pass's meshes, the
+    breaks used (fractions of t_f, (B, K + 1)) and the relative fuel change from the previous
+    pass (inf for the first)."""
+
+    solution: FuelOptimalSolution
+    breaks: np.ndarray
+    fuel_change: np.ndarray
+
+
+def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, points: int = 8,
+                        fuel_tol: float = 1e-4, max_passes: int = 5,
+                        options: HomotopyOptions = HomotopyOptions()):
+    """Solve a batch of problems (leading axis on every array leaf; one problem: add it with
+    `jax.tree_util.tree_map(lambda x: x[None], p)`) on `segments` LGR segments of `points`
+    points: first a uniform mesh, then meshes with breaks at the previous switching times,
+    until every member's fuel changes by less than fuel_tol (relative) or max_passes.
+    Each pass is one vmapped call. Returns the list of `RefinementPass`es (the last is the
+    answer)."""
+    require_x64()
+    if not isinstance(problems, FuelOptimalTransfer):
+        raise ValueError(f"problems must be a FuelOptimalTransfer, got "
+                         f"{type(problems).__name__}")
+    size = np.shape(problems.duration)
+    if len(size) != 1:
+        raise ValueError(f"problems must carry one leading batch axis, got duration shape {size}")
+    for i in range(size[0]):
+        _member(problems, i).validate()
+    grid_mesh = segmented_lgr(uniform_breaks(0.0, 1.0, segments), points)
+    _check_mesh(grid_mesh)
+    solve = jax.jit(jax.vmap(lambda p, b: _fuel_optimal_transfer(
+        p, SegmentedMesh(breaks=b, grid=grid_mesh.grid), options)))
+    breaks = np.tile(np.asarray(grid_mesh.breaks), (size[0], 1))
+    passes, fuel_prev = [], np.full(size[0], np.nan)
+    for _ in range(max_passes):
+        sol = solve(problems, jnp.asarray(breaks))
+        fuel = np.asarray(sol.fuel)
+        change = (np.abs(fuel - fuel_prev) / np.abs(fuel) if passes
+                  else np.full(size[0], np.inf))
+        passes.append(RefinementPass(solution=sol, breaks=breaks, fuel_change=change))
+        if np.all(change < fuel_tol):
+            break
+        fuel_prev = fuel
+        new = []
+        for i in range(size[0]):
+            member = _member(sol, i)
+            T = float(member.problem.duration)
+            sw = switching_times(member) / T
+            new.append(aligned_breaks(0.0, 1.0, segments, sw))
+        breaks = np.stack(new)
+    return passes
