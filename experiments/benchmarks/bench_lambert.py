@@ -54,13 +54,16 @@ jax.config.update("jax_enable_compilation_cache", False)   # cold compiles, meas
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
-from scipy.optimize import minimize_scalar  # noqa: E402
 
 from jaxlpm.constants import MU_EARTH  # noqa: E402
 from jaxlpm.dynamics.propagation import propagate  # noqa: E402
 from jaxlpm.orbits.lambert import DEGENERATE_ANGLE, lambert  # noqa: E402
 from jaxlpm.status import Status  # noqa: E402
 from common import cold_compile, machine_info, timed  # noqa: E402  (this directory)
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests"))
+# the test suite's independent reference: Lagrange's equation minimised by scipy
+from test_lambert import reference_min_tof  # noqa: E402
 
 MU = MU_EARTH
 PI = np.pi
@@ -224,26 +227,6 @@ def kepler_universal(r0, v0, t, mu=MU, max_iterations=200):
     fdot = sqmu / (rn * r0n) * (alpha * chi**3 * s - chi)
     gdot = 1.0 - chi**2 * c / rn
     return f * r0 + g * v0, fdot * r0 + gdot * v0, done, it
-
-
-# --- independent M-revolution minimum time (as tests/test_lambert.py) ------------------------
-
-def _lagrange_tof(x, lam, revs):
-    a = 1.0 / (1.0 - x * x)
-    alpha = 2.0 * np.arccos(x)
-    beta = 2.0 * np.arcsin(lam * np.sqrt(1.0 - x * x))
-    return a**1.5 * ((alpha - np.sin(alpha)) - (beta - np.sin(beta)) + 2.0 * PI * revs) / 2.0
-
-
-def reference_min_tof(r1, r2, revs, prograde):
-    r1n, r2n = np.linalg.norm(r1), np.linalg.norm(r2)
-    c = np.linalg.norm(r2 - r1)
-    s = 0.5 * (r1n + r2n + c)
-    lam = np.sqrt(1.0 - c / s)
-    lam = lam if (np.cross(r1, r2)[2] >= 0.0) == prograde else -lam
-    res = minimize_scalar(lambda x: _lagrange_tof(x, lam, revs), bounds=(-1 + 1e-12, 1 - 1e-12),
-                          method="bounded", options={"xatol": 1e-12})
-    return res.fun / np.sqrt(2.0 * MU / s**3)
 
 
 # --- report helpers -----------------------------------------------------------------------------
