@@ -63,7 +63,7 @@ from common import cold_compile, machine_info, timed  # noqa: E402  (this direct
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests"))
 # the test suite's independent reference: Lagrange's equation minimised by scipy
-from test_lambert import reference_min_tof  # noqa: E402
+from test_lambert import _rotate_towards, _unit, reference_min_tof  # noqa: E402
 
 MU = MU_EARTH
 PI = np.pi
@@ -74,18 +74,6 @@ GROUPS = ("random", "near_pi", "near_zero", "near_parabolic")
 
 
 # --- problems ------------------------------------------------------------------------------
-
-def _unit(rng, n):
-    v = rng.normal(size=(n, 3))
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-
-def _rotate_towards(u, w, angle):
-    """Unit vectors at `angle` from unit u, in the plane of u and w."""
-    p = w - np.sum(w * u, axis=1, keepdims=True) * u
-    p /= np.linalg.norm(p, axis=1, keepdims=True)
-    return np.cos(angle)[:, None] * u + np.sin(angle)[:, None] * p
-
 
 def _semi_perimeter(r1, r2):
     c = np.linalg.norm(r2 - r1, axis=1)
