@@ -24,26 +24,32 @@ Measured:
      jax.jit(newton_transfer), caches cleared, persistent cache off), our steady-state time
      (median of repeats), IPOPT's build time (nlpsol) and time per solve (median of repeats);
   2. batched: jax.jit(jax.vmap(newton_transfer, in_axes=(0, None))) over B dispersed problems
+     (--batches), and --mapped M problems in one jitted call that runs lax.map over vmapped
+     groups of --map-width (a vmapped while-loop runs every member for the slowest one's
+     iterations; the map does not)
      (`jaxlpm.batch.mei2010_dispersion(PRNGKey(seed), B, "two-body")`: chief perigee altitude
      600 km, e in [0, 0.7], 1-5 revolutions, f0 and argp uniform, x0 position in a +-25 km cube,
      velocity +-10 m/s, xf = 0; `own_dispersion` below draws the same family if that module is
      missing), compile and time per batch, convergence counts; IPOPT one problem at a time over
      the first --n-ipopt members of the largest batch (the same problems);
-  3. a profile of one solve: problem setup, warm start, derivative assembly (Jacobian, Hessian,
-     KKT residual), the dense KKT solve, and iteration counts.
+  3. a profile of one solve: problem setup, warm start, derivative assembly, the KKT solve
+     (dense: Jacobian, Hessian, the 987 x 987 LU; condensed: drift Jacobians and the null-space
+     map T, Hessian blocks, the 183 x 183 reduced system), and iteration counts.
+--linear-algebra picks newton_transfer's KKT solve ("auto" = "condensed" here, or "dense").
 
 Wall and process CPU times are both recorded (the machine is shared: CPU time depends less on
 the other processes' load). A batched call is timed once when it takes longer than
 --batch-one-call-s (the AOT-compiled executable: no compile inside).
 
-Run:  PYTHONPATH=. python experiments/benchmarks/bench_newton.py [--batches 16,64]
-      [--n-ipopt 20] [--out results/bench_newton.json]
-(about 18 min on the 2-core machine of BENCHMARKS.md at load 5-6; --batches 1024 does not fit:
-one copy of the batched 987 x 987 KKT matrices is 8 GB, and it would take hours, see
-BENCHMARKS.md)
+Run:  PYTHONPATH=. python experiments/benchmarks/bench_newton.py [--batches 64]
+      [--mapped 1024 --map-width 1] [--n-ipopt 20] [--linear-algebra auto]
+      [--out results/bench_newton.json]
+(with --linear-algebra dense, --batches 1024 does not fit: one copy of the batched 987 x 987
+KKT matrices is 8 GB; see BENCHMARKS.md)
 """
 
 import argparse
+import functools
 import json
 import os
 import statistics
@@ -74,6 +80,7 @@ from jaxlpm.problems.relative import control_scale, cost_scale, transfer_ocp  # 
 from jaxlpm.problems.transcription import (equality, equality_jacobian,  # noqa: E402
                                            lagrangian_hessian, objective)
 from jaxlpm.solvers import newton_transfer  # noqa: E402
+from jaxlpm.solvers.condensed import CondensedLVLH  # noqa: E402
 from jaxlpm.solvers.newton import _kkt_step, kkt_residual  # noqa: E402
 from jaxlpm.solvers.transfer import _warm_start  # noqa: E402
 from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
@@ -315,15 +322,61 @@ def batched_lu(B, grid, prob):
     return dict(batch=B, per_member_s=t["median_s"] / B)
 
 
+def profile_condensed(prob, grid, sol):
+    """Time the pieces of one condensed solve, each jitted alone at the warm start."""
+    ocp, _, _ = transfer_ocp(prob, grid)
+    z0 = _warm_start(prob, ocp, grid)
+    la = CondensedLVLH(ocp, grid)
+    lam = la.first_multipliers(z0)
+    prep = la.prepare(z0, lam)
+    H = la.hessian(prep, z0, lam)
+    g = jax.grad(objective)(z0, ocp, grid)
+    c = equality(z0, ocp, grid)
+
+    def with_la(fn):
+        return lambda *a: fn(CondensedLVLH(ocp, grid), *a)
+
+    pieces = {
+        "transfer_ocp (Kepler, chief node data)": (lambda p: transfer_ocp(p, grid)[0], (prob,)),
+        "transfer_ocp + _warm_start (kkt_law of the linear model)":
+            (lambda p: _warm_start(p, transfer_ocp(p, grid)[0], grid), (prob,)),
+        "kkt_residual (grad L by autodiff, c)":
+            (lambda z, l: kkt_residual(jnp.concatenate([z, l]), ocp, grid), (z0, lam)),
+        "prepare (drift Jacobians, null-space map T 585 x 183)":
+            (with_la(lambda la, z, l: la.prepare(z, l)), (z0, lam)),
+        "hessian (65 point blocks 9 x 9)": (with_la(lambda la, z, l: la.hessian(None, z, l)),
+                                            (z0, lam)),
+        "solve (T^T H T, 183 x 183 Cholesky, multipliers)":
+            (with_la(lambda la, pr, H, g, c: la.solve(pr, H, g, c, 0.0, 0.0)), (prep, H, g, c)),
+    }
+    out = {}
+    for label, (fn, args) in pieces.items():
+        f = jax.jit(fn)
+        block(f(*args))
+        t = timed(lambda: block(f(*args)), min_repeats=5, budget_s=1.5)
+        out[label] = t["median_s"]
+    it = int(sol.iterations)
+    per_pass = sum(v for k, v in out.items() if k.startswith(("kkt", "prepare", "hessian",
+                                                              "solve")))
+    passes = it + 1
+    est = out["transfer_ocp + _warm_start (kkt_law of the linear model)"] + passes * per_pass
+    return dict(pieces_s=out, newton_iterations=it, loop_passes=passes, estimated_total_s=est)
+
+
 # ----------------------------------------------------------------------------------- machine
 # -------------------------------------------------------------------------------------- main
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="results/bench_newton.json")
-    ap.add_argument("--batches", default="16,64",
-                    help="comma-separated batch sizes for jit(vmap(newton_transfer)); 1024 "
-                         "needs ~8 GB per copy of the batched 987 x 987 KKT matrices, and a "
-                         "call runs every member for the batch's largest iteration count")
+    ap.add_argument("--batches", default="64",
+                    help="comma-separated batch sizes for jit(vmap(newton_transfer)); a call "
+                         "runs every member for the batch's largest iteration count")
+    ap.add_argument("--mapped", type=int, default=1024,
+                    help="problems solved in one jitted call by lax.map over vmapped groups "
+                         "(0: skip)")
+    ap.add_argument("--map-width", type=int, default=1, help="vmap width inside that lax.map")
+    ap.add_argument("--linear-algebra", default="auto", choices=("auto", "condensed", "dense"),
+                    help="newton_transfer's KKT solve")
     ap.add_argument("--n-ipopt", type=int, default=20,
                     help="dispersed problems solved one at a time by IPOPT")
     ap.add_argument("--single-repeats-s", type=float, default=6.0,
@@ -341,11 +394,12 @@ def main(argv=None):
                     help="abort with a traceback after this many seconds (a hung XLA pool)")
     args = ap.parse_args(argv)
     batches = [int(b) for b in args.batches.split(",") if b]
+    newton = functools.partial(newton_transfer, linear_algebra=args.linear_algebra)
     faulthandler.dump_traceback_later(args.watchdog, exit=True)
     t_start = time.perf_counter()
     grid = lgl(N_POINTS)
     D, W = np.asarray(grid.D), np.asarray(grid.weights)
-    res = dict(schema_version=1, date_utc=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+    res = dict(schema_version=1, linear_algebra=args.linear_algebra, date_utc=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
                case=dict(single="mei2010 (a 9500 km, e 0.3, 3 rev, x0 [10 km, 10 km, 0, 4, "
                          "-23.485, 0]) on model two-body", lgl_points=N_POINTS,
                          N=N_POINTS - 1, model=MODEL, variables=9 * N_POINTS,
@@ -359,7 +413,7 @@ def main(argv=None):
 
     # 1. single problem: ours ----------------------------------------------------------------
     prob = single_problem()
-    compiled, comp = cold_compile(newton_transfer, prob, grid, repeats=args.compile_repeats)
+    compiled, comp = cold_compile(newton, prob, grid, repeats=args.compile_repeats)
     sol = block(compiled(prob, grid))
     run = timed(lambda: block(compiled(prob, grid)), min_repeats=10,
                 budget_s=args.single_repeats_s)
@@ -371,7 +425,7 @@ def main(argv=None):
     if not args.no_opt0:
         # diagnostic: the same function with LLVM's backend optimisation off (as the mei2010
         # CLI does for the LQ laws): how much of the compile is LLVM, and what it costs at run
-        c0_exec, comp0 = cold_compile(newton_transfer, prob, grid,
+        c0_exec, comp0 = cold_compile(newton, prob, grid,
                                       compiler_options={"xla_backend_optimization_level": 0})
         block(c0_exec(prob, grid))
         ours_opt0 = dict(compile=comp0, solve=timed(lambda: block(c0_exec(prob, grid)),
@@ -435,11 +489,19 @@ def main(argv=None):
     # 2. batched -----------------------------------------------------------------------------
     key = jax.random.PRNGKey(args.seed)
     res["batched"] = {}
-    vsolve = jax.vmap(newton_transfer, in_axes=(0, None))
+    vsolve = jax.vmap(newton, in_axes=(0, None))
+
+    def mapped(ps, g):
+        return jax.lax.map(lambda p: newton(p, g), ps, batch_size=args.map_width)
+
+    runs = [(str(B), f"jit(vmap(newton_transfer)) x{B}", vsolve, B) for B in batches]
+    if args.mapped:
+        runs.append((f"map{args.mapped}_w{args.map_width}",
+                     f"jit(lax.map, width {args.map_width}) x{args.mapped}", mapped, args.mapped))
     last = None
-    for B in batches:
+    for name, label, fn, B in runs:
         probs, sampler = dispersion(key, B)
-        compiled_b, comp_b = cold_compile(vsolve, probs, grid)
+        compiled_b, comp_b = cold_compile(fn, probs, grid)
         t0, c0 = time.perf_counter(), time.process_time()
         sols = block(compiled_b(probs, grid))
         calls, cpus = [time.perf_counter() - t0], [time.process_time() - c0]
@@ -452,19 +514,21 @@ def main(argv=None):
         per_call = statistics.median(calls)
         status = np.asarray(sols.status)
         iters = np.asarray(sols.iterations)
-        res["batched"][str(B)] = dict(
-            sampler=sampler, compile=comp_b, call_s=calls, call_cpu_s=cpus,
+        res["batched"][name] = dict(
+            label=label, sampler=sampler, compile=comp_b, call_s=calls, call_cpu_s=cpus,
             median_call_s=per_call,
             per_problem_s=per_call / B, problems_per_s=B / per_call, loadavg=os.getloadavg(),
             converged=int(np.sum(status == 0)), members=B,
             status_counts={int(k): int(v) for k, v in zip(*np.unique(status, return_counts=True))},
-            iterations_max=int(iters.max()), iterations_median=float(np.median(iters)))
-        r = res["batched"][str(B)]
-        print(f"[ours, batch {B}] compile {comp_b['total_s']:.1f} s, call {per_call:.2f} s "
+            iterations_max=int(iters.max()), iterations_median=float(np.median(iters)),
+            iterations_sum=int(iters.sum()))
+        r = res["batched"][name]
+        print(f"[ours, {label}] compile {comp_b['total_s']:.1f} s, call {per_call:.2f} s "
               f"({r['per_problem_s'] * 1e3:.1f} ms/problem, {r['problems_per_s']:.1f} "
               f"problems/s), status 0: {r['converged']}/{B}, iterations max "
               f"{r['iterations_max']}, load {r['loadavg'][0]:.2f}", flush=True)
-        last = (B, probs, sols)
+        if last is None or B >= last[0]:
+            last = (B, probs, sols)
         del compiled_b
 
     # IPOPT over a sample of the same dispersed problems (the first n of the largest batch;
@@ -513,8 +577,11 @@ def main(argv=None):
 
     # 3. profile -----------------------------------------------------------------------------
     if not args.no_profile:
-        res["profile"] = profile(prob, grid, sol)
-        res["profile"]["batched_lu_987"] = batched_lu(32, grid, prob)
+        if args.linear_algebra == "dense":
+            res["profile"] = profile(prob, grid, sol)
+            res["profile"]["batched_lu_987"] = batched_lu(32, grid, prob)
+        else:
+            res["profile"] = profile_condensed(prob, grid, sol)
         res["profile"]["loadavg"] = os.getloadavg()
 
     # ratios and targets -----------------------------------------------------------------------
@@ -563,7 +630,7 @@ def print_table(res):
           f"{1 / p['solve']['median_s']:>12.2f}  {p['status']}, {p['iterations']} it")
     for B, b in res["batched"].items():
         cpu = statistics.median(b["call_cpu_s"]) / b["members"]
-        print(f"{'jit(vmap(newton_transfer)) x' + B + ' dispersed':<42}"
+        print(f"{b['label'] + ' dispersed':<42}"
               f"{b['compile']['total_s']:>9.1f} s wall{b['per_problem_s'] * ms:>13.1f} ms"
               f"{cpu * ms:>9.1f} ms{b['problems_per_s']:>12.2f}  {b['converged']}/{b['members']}"
               f" (max {b['iterations_max']} it)")
@@ -581,20 +648,21 @@ def print_table(res):
           f"{'MET' if r['single_met'] else 'NOT MET'}); compile {r['compile_s']:.1f} s (< 15 s: "
           f"{'MET' if r['compile_met'] else 'NOT MET'})")
     for B, x in r["batched"].items():
-        print(f"  batched x{B}: throughput {x['throughput_ours_over_ipopt']:.2f}x IPOPT's (>= 10x:"
+        print(f"  {res['batched'][B]['label']}: throughput {x['throughput_ours_over_ipopt']:.2f}x IPOPT's (>= 10x:"
               f" {'MET' if x['met'] else 'NOT MET'})")
     if "profile" in res:
         pr = res["profile"]
         print(f"\nprofile (one mei2010 solve, pieces jitted alone; {pr['newton_iterations']} "
-              f"Newton iterations, {pr['loop_passes']} loop passes, {pr['dense_kkt_solves']} "
-              f"dense KKT solves incl. the warm start):")
+              f"Newton iterations, {pr['loop_passes']} loop passes):")
         for k, v in pr["pieces_s"].items():
             print(f"  {k:<74}{v * ms:>9.2f} ms")
-        print(f"  estimated total {pr['estimated_total_s'] * ms:.1f} ms, of which dense KKT "
-              f"solves {pr['estimated_dense_solve_s'] * ms:.1f} ms "
-              f"({pr['estimated_dense_solve_fraction'] * 100:.0f} %); vmapped LU x"
-              f"{pr['batched_lu_987']['batch']}: {pr['batched_lu_987']['per_member_s'] * ms:.1f}"
-              f" ms per member")
+        line = f"  estimated total {pr['estimated_total_s'] * ms:.1f} ms"
+        if "batched_lu_987" in pr:
+            line += (f", of which dense KKT solves {pr['estimated_dense_solve_s'] * ms:.1f} ms "
+                     f"({pr['estimated_dense_solve_fraction'] * 100:.0f} %); vmapped LU x"
+                     f"{pr['batched_lu_987']['batch']}: "
+                     f"{pr['batched_lu_987']['per_member_s'] * ms:.1f} ms per member")
+        print(line)
 
 
 if __name__ == "__main__":

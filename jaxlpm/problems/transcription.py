@@ -160,7 +160,7 @@ def n_boundary(ocp: OptimalControlProblem, grid) -> int:
                           x, x).shape[0]
 
 
-def _point_indices(ocp, grid):
+def point_indices(ocp, grid):
     """(n, n_x + n_u) positions in z of each collocation point's (x_i, u_i)."""
     first = {"LGL": 0, "LG": 1, "LGR": 0}[grid.scheme]
     points = jnp.arange(grid.n)
@@ -197,7 +197,7 @@ def equality_jacobian(z, ocp: OptimalControlProblem, grid):
     n_x, n = ocp.n_x, z.size
     h = 0.5 * (sf - ocp.s0)
     J = -h * _pointwise_jacobian(ocp, grid, X, U, sf)               # (n_pts, n_x, n_x + n_u)
-    idx = _point_indices(ocp, grid)
+    idx = point_indices(ocp, grid)
     n_def = grid.n * n_x
     rows_i = jnp.arange(n_def).reshape(grid.n, n_x)
     A = jnp.zeros((n_def, n), z.dtype)
@@ -231,21 +231,17 @@ def lagrangian(z, multipliers, ocp: OptimalControlProblem, grid):
     return objective(z, ocp, grid) + jnp.dot(multipliers, equality(z, ocp, grid))
 
 
-def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
-    """Hessian of `lagrangian` in z from its separable pieces: per collocation point the block
-    of h w_i L(x_i, u_i) - h mu_i . F(x_i, u_i) (mu_i = Lambda_i; LG: + w_i Lambda_F), the
-    (x0, xf) block of the boundary and terminal terms, and with a free final s the dense sf
-    row and column (one forward-over-reverse derivative). D X is linear: no contribution.
-    A `PathPenalty`'s path terms join the per-point blocks (its final-s term lives in the sf
-    row and column)."""
+def point_hessians(z, multipliers, ocp: OptimalControlProblem, grid):
+    """Per collocation point, the Hessian in (x_i, u_i) of h w_i L(x_i, u_i) - h mu_i . F(x_i,
+    u_i) (mu_i = Lambda_i; LG: + w_i Lambda_F), plus a `PathPenalty`'s path terms:
+    (n, n_x + n_u, n_x + n_u), at the positions `point_indices` of z."""
     X, U, sf = unpack(z, ocp, grid)
-    n_x, n = ocp.n_x, z.size
+    n_x = ocp.n_x
     h = 0.5 * (sf - ocp.s0)
     n_def = grid.n * n_x
     mu = multipliers[:n_def].reshape(grid.n, n_x)
     if grid.scheme == "LG":
         mu = mu + grid.weights[:, None] * multipliers[n_def:n_def + n_x][None]
-    nu = multipliers[multipliers.size - n_boundary(ocp, grid):]
     s = collocation_s(ocp, grid, sf)
     data_axis = None if ocp.node_data is None else 0
 
@@ -269,9 +265,20 @@ def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
             return val
         return jax.hessian(ell)(jnp.concatenate([x, u]))
 
-    blocks = jax.vmap(point_block, in_axes=(0, 0, 0, data_axis, 0, 0, 0, 0))(
+    return jax.vmap(point_block, in_axes=(0, 0, 0, data_axis, 0, 0, 0, 0))(
         s, X[collocated_rows(grid)], U, ocp.node_data, mu, grid.weights, pen_g, pen_h)
-    idx = _point_indices(ocp, grid)
+
+
+def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
+    """Hessian of `lagrangian` in z from its separable pieces: the `point_hessians` blocks,
+    the (x0, xf) block of the boundary and terminal terms, and with a free final s the dense sf
+    row and column (one forward-over-reverse derivative). D X is linear: no contribution.
+    A `PathPenalty`'s final-s term lives in the sf row and column."""
+    _, _, sf = unpack(z, ocp, grid)
+    n_x, n = ocp.n_x, z.size
+    nu = multipliers[multipliers.size - n_boundary(ocp, grid):]
+    blocks = point_hessians(z, multipliers, ocp, grid)
+    idx = point_indices(ocp, grid)
     H = jnp.zeros((n, n), z.dtype).at[idx[:, :, None], idx[:, None, :]].add(blocks)
 
     def end_terms(v):

@@ -56,7 +56,7 @@ class NewtonOptions:
     max_backtracks: int = 30
     max_regularisations: int = 6
     armijo: float = 1e-4
-    max_continuation: int = 16       # Newton solves of the continuation after a failed start
+    max_continuation: int = 64       # Newton solves of the continuation after a failed start
     continuation_start: float = 1.0 / 64.0   # its first t (see `newton_kkt`'s homotopy)
 
 
@@ -126,72 +126,97 @@ def newton_step(ocp, grid, z):
     return z + p, lam_new
 
 
-def _newton_loop(w0, ocp, grid, options: NewtonOptions):
+class DenseKKT:
+    """Newton-KKT linear algebra for any transcription: the whole KKT matrix by one LU per
+    solve (`_kkt_step`), the step's null-space component and the second-order correction
+    through the Cholesky factor of A A^T, first multipliers by least squares."""
+
+    def __init__(self, ocp, grid):
+        self.ocp, self.grid = ocp, grid
+
+    def prepare(self, z, lam):
+        A = equality_jacobian(z, self.ocp, self.grid)
+        return A, jax.scipy.linalg.cho_factor(A @ A.T)
+
+    def hessian(self, prep, z, lam):
+        return lagrangian_hessian(z, lam, self.ocp, self.grid)
+
+    def hessian_scale(self, H):
+        return jnp.max(jnp.abs(jnp.diag(H)))
+
+    def solve(self, prep, H, g, c, dw, dc):
+        """(p, lambda+, ok) of the system regularised by (dw, dc); ok: finite, inertia sign
+        right and no negative curvature along p's null-space component (a range-space
+        component may legitimately have p^T H p < 0 while c != 0)."""
+        A, AAt = prep
+        p, lam_new, inertia_ok = _kkt_step(H, A, g, c, dw, dc)
+        p_n = p - A.T @ jax.scipy.linalg.cho_solve(AAt, A @ p)
+        curvature = p_n @ (H @ p_n) + dw * (p_n @ p_n)
+        finite = jnp.all(jnp.isfinite(p)) & jnp.all(jnp.isfinite(lam_new))
+        return p, lam_new, finite & inertia_ok & (curvature >= 0.0)
+
+    def correction(self, prep, r):
+        """The least-norm d with A d = -r."""
+        A, AAt = prep
+        return -A.T @ jax.scipy.linalg.cho_solve(AAt, r)
+
+    def first_multipliers(self, z):
+        return _least_squares_multipliers(z, self.ocp, self.grid)
+
+
+def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT):
     n = n_variables(ocp, grid)
     z0, lam0 = w0[:n], w0[n:]
     f = functools.partial(objective, ocp=ocp, grid=grid)
     c_fun = functools.partial(equality, ocp=ocp, grid=grid)
     opts = options
+    la = linear_algebra(ocp, grid)
 
     def merit(z, mu):
         return f(z) + mu * jnp.sum(jnp.abs(c_fun(z)))
 
     def residuals(z, lam):
-        g, c = jax.grad(f)(z), c_fun(z)
-        A = equality_jacobian(z, ocp, grid)
-        gl = g + A.T @ lam
-        return g, c, A, jnp.max(jnp.abs(c)), jnp.max(jnp.abs(gl))
+        g = jax.grad(f)(z)
+        c, c_vjp = jax.vjp(c_fun, z)
+        gl = g + c_vjp(lam)[0]
+        return g, c, jnp.max(jnp.abs(c)), jnp.max(jnp.abs(gl))
 
-    def regularised_step(H, A, g, c, dw_last, null_part):
-        """dw = 0 first; on a non-finite solve, the wrong inertia sign or negative curvature
-        along the step's null-space component (a range-space component may legitimately
-        have p^T H p < 0 while c != 0), retry with dw = max(1e-8 scale, dw_last / 4), then
-        x100 (IPOPT-like)."""
-        scale = 1.0 + jnp.max(jnp.abs(jnp.diag(H)))
-
-        def bad(p, lam_new, dw, inertia_ok):
-            p_n = null_part(p)
-            curvature = p_n @ (H @ p_n) + dw * (p_n @ p_n)
-            finite = jnp.all(jnp.isfinite(p)) & jnp.all(jnp.isfinite(lam_new))
-            return ~finite | ~inertia_ok | (curvature < 0.0)
+    def regularised_step(prep, H, g, c, dw_last):
+        """dw = 0 first; while the backend's solve is not ok (non-finite, wrong inertia,
+        negative curvature), retry with dw = max(1e-8 scale, dw_last / 4), then x100
+        (IPOPT-like), and dc = 1e-12."""
+        scale = 1.0 + la.hessian_scale(H)
 
         def cond(s):
-            p, lam_new, dw, inertia_ok, k = s
-            return (k == 0) | (bad(p, lam_new, dw, inertia_ok) & (k <= opts.max_regularisations))
+            _, _, _, ok, k = s
+            return (k == 0) | (~ok & (k <= opts.max_regularisations))
 
         def body(s):
             _, _, dw, _, k = s
             first = jnp.maximum(1e-8 * scale, 0.25 * dw_last)
             dw = jnp.where(k == 0, 0.0, jnp.where(k == 1, first, 100.0 * dw))
-            p, lam_new, inertia_ok = _kkt_step(H, A, g, c, dw, jnp.where(k == 0, 0.0, 1e-12))
-            return p, lam_new, dw, inertia_ok, k + 1
+            p, lam_new, ok = la.solve(prep, H, g, c, dw, jnp.where(k == 0, 0.0, 1e-12))
+            return p, lam_new, dw, ok, k + 1
 
         nan = jnp.full(g.shape, jnp.nan, g.dtype)
-        p, lam_new, dw, inertia_ok, _ = jax.lax.while_loop(
+        p, lam_new, dw, ok, _ = jax.lax.while_loop(
             cond, body, (nan, jnp.full(c.shape, jnp.nan, c.dtype), jnp.zeros((), g.dtype),
                          jnp.array(False), 0))
-        return p, lam_new, dw, ~bad(p, lam_new, dw, inertia_ok)
+        return p, lam_new, dw, ok
 
     def body(s):
         z, lam, mu, k, hist, reg, dw_last, status = s
-        g, c, A, feas, opt = residuals(z, lam)
+        g, c, feas, opt = residuals(z, lam)
         kkt = jnp.maximum(feas, opt)
         hist = hist.at[k].set(kkt)
         converged = (feas <= opts.tol_feasibility) & (opt <= opts.tol_optimality)
         # the iteration after the last step only checks convergence (a last step that lands
         # on the solution is SUCCESS, not MAX_ITERATIONS)
         out_of_budget = k >= opts.max_iterations
-        AAt = jax.scipy.linalg.cho_factor(A @ A.T)
-
-        def range_solve(r):
-            return jax.scipy.linalg.cho_solve(AAt, r)
-
-        def null_part(p):
-            return p - A.T @ range_solve(A @ p)
+        prep = la.prepare(z, lam)
 
         def step(_):
-            return regularised_step(lagrangian_hessian(z, lam, ocp, grid), A, g, c, dw_last,
-                                    null_part)
+            return regularised_step(prep, la.hessian(prep, z, lam), g, c, dw_last)
 
         def skip(_):          # converged: no factorisation (unbatched; vmap runs both)
             return jnp.zeros_like(z), lam, jnp.zeros((), z.dtype), jnp.array(True)
@@ -208,10 +233,9 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
             return phi <= phi0 + opts.armijo * alpha * slope
 
         # second-order correction of the full step (Nocedal & Wright Alg. 18.3 / §15.5):
-        # p_soc = -A^T (A A^T)^-1 c(z + p) removes the constraints' curvature that makes the
+        # p_soc = p + d with A d = -c(z + p) removes the constraints' curvature that makes the
         # merit reject good Newton steps near a solution (the Maratos effect)
-        c_full = c_fun(z + p)
-        p_soc = p - A.T @ range_solve(c_full)
+        p_soc = p + la.correction(prep, c_fun(z + p))
         phi_full, phi_soc = trial(1.0), merit(z + p_soc, mu)
         # a full step (plain or corrected) is also accepted if it halves the KKT residual
         kkt_soc = jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + p_soc, lam_new]), ocp, grid)))
@@ -249,8 +273,9 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions):
     return jnp.concatenate([z, lam]), (status, k, hist, reg)
 
 
-def _continuation_loop(w0, ocp, grid, options: NewtonOptions, homotopy):
-    """Solve the problem from w0; if that fails, follow homotopy(ocp, t) from t =
+def _continuation_loop(loop, w0, ocp, grid, options: NewtonOptions, homotopy):
+    """Solve the problem from w0 by `loop(w, ocp, grid, options) -> (w, (status, iterations,
+    history, regularisation))` (`_newton_loop` or the reduced-space loop); if that fails, follow homotopy(ocp, t) from t =
     continuation_start (where w0 is nearly exact) to t = 1 (the problem): each solve starts
     from the last converged one, t doubles after a success and bisects back towards the last
     converged t after a failure (Allgower & Georg 1990, ch. 1: embedding with step control).
@@ -261,7 +286,7 @@ def _continuation_loop(w0, ocp, grid, options: NewtonOptions, homotopy):
 
     def body(s):
         w_start, t_try, t_good, w_good, attempts, total, w_out, aux_out, _ = s
-        w, (status, k, hist, reg) = _newton_loop(w_start, homotopy(ocp, t_try), grid, options)
+        w, (status, k, hist, reg) = loop(w_start, homotopy(ocp, t_try), grid, options)
         ok = status == Status.SUCCESS
         first = attempts == 0
         reached = ok & (t_try >= 1.0)
@@ -285,18 +310,25 @@ def _continuation_loop(w0, ocp, grid, options: NewtonOptions, homotopy):
 
 
 @functools.lru_cache(maxsize=None)
-def _solver(options: NewtonOptions, homotopy=None):
+def _solver(options: NewtonOptions, homotopy=None, linear_algebra=DenseKKT):
+    loop = functools.partial(_newton_loop, linear_algebra=linear_algebra)
+
     @root(kkt_residual, has_aux=True, zero_nonfinite=True)
     def solve(w0, ocp, grid):
         if homotopy is None:
-            return _newton_loop(w0, ocp, grid, options)
-        return _continuation_loop(w0, ocp, grid, options, homotopy)
+            return loop(w0, ocp, grid, options)
+        return _continuation_loop(loop, w0, ocp, grid, options, homotopy)
     return solve
 
 
 def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = NewtonOptions(),
-               homotopy=None):
+               homotopy=None, linear_algebra=DenseKKT):
     """Solve the transcribed problem from the initial guess z0 (and multipliers).
+
+    linear_algebra: how each Newton-KKT system is solved: `DenseKKT` (default, any
+    transcription) or a structured class with the same methods, e.g.
+    `jaxlpm.solvers.condensed.CondensedLVLH` (the LVLH transfer on LGL grids): the same
+    steps, iterates and statuses, up to round-off.
 
     homotopy: optional `(ocp, t) -> ocp`, a module-level function (it keys the compiled
     solver) embedding the problem in a family with t = 1 the problem itself and t -> 0 one
@@ -319,9 +351,10 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
                          f"got {multipliers0.shape}")
     if is_concrete(z0):
         check_finite("z0", z0)
-    lam0 = _least_squares_multipliers(z0, ocp, grid) if multipliers0 is None else multipliers0
-    w, (status, k, hist, reg) = _solver(options, homotopy)(jnp.concatenate([z0, lam0]), ocp,
-                                                           grid)
+    if multipliers0 is None:
+        multipliers0 = linear_algebra(ocp, grid).first_multipliers(z0)
+    w, (status, k, hist, reg) = _solver(options, homotopy, linear_algebra)(
+        jnp.concatenate([z0, multipliers0]), ocp, grid)
     z, lam = w[:n], w[n:]
     res = kkt_residual(jax.lax.stop_gradient(w), ocp, grid)
     return NLPResult(z=z, multipliers=lam, status=status, iterations=k,

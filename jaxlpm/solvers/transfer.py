@@ -17,7 +17,8 @@ from ..problems.transcription import (collocated_rows, collocation_s, costates, 
                                       pack, state_tau, unpack)
 from ..status import Status
 from .lq import kkt_law
-from .newton import NewtonOptions, newton_kkt, newton_step
+from .condensed import CondensedLVLH
+from .newton import DenseKKT, NewtonOptions, newton_kkt, newton_step
 from .solution import TransferSolution
 
 
@@ -55,10 +56,21 @@ def _state_s(ocp, grid):
     return ocp.s0 + 0.5 * (ocp.sf - ocp.s0) * (state_tau(grid) + 1.0)
 
 
+LINEAR_ALGEBRA = ("auto", "condensed", "dense")
+
+
+def _condensable(problem, grid):
+    return grid.scheme == "LGL" and problem.model != "linear" and all(problem.thrust_axes)
+
+
 def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
-                    warm_start: bool = True) -> TransferSolution:
+                    warm_start: bool = True, linear_algebra: str = "auto") -> TransferSolution:
     """Solve `problem` (any model) on `grid` (any scheme) by Newton-KKT.
 
+    linear_algebra: how each Newton-KKT system is solved: "dense" (`DenseKKT`, one LU of the
+    whole KKT matrix), "condensed" (`CondensedLVLH`: the same step from a 3 (N - 3)-unknown
+    null-space system; nonlinear models on LGL grids with every thrust axis) or "auto"
+    (default: "condensed" where it applies, else "dense").
     warm_start=False starts from zero states and controls (the linear model then converges
     in one Newton step: it is a QP). On the nonlinear models a failed solve is retried by
     continuation in the separation (`separation_homotopy`, from 1/64 of it to all of it);
@@ -76,7 +88,15 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
         n_rows = state_tau(grid).shape[0]
         z0 = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp.sf, ocp)
     homotopy = None if problem.model == "linear" else separation_homotopy
-    result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy)
+    if linear_algebra not in LINEAR_ALGEBRA:
+        raise ValueError(f"linear_algebra must be one of {LINEAR_ALGEBRA}, got "
+                         f"{linear_algebra!r}")
+    condensable = _condensable(problem, grid)
+    if linear_algebra == "condensed" and not condensable:
+        raise ValueError("linear_algebra='condensed' needs a nonlinear model ('two-body', "
+                         "'j2'), an LGL grid and every thrust axis; use 'dense' or 'auto'")
+    la = CondensedLVLH if condensable and linear_algebra != "dense" else DenseKKT
+    result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy, linear_algebra=la)
     X, U, _ = unpack(result.z, ocp, grid)
     states = jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, state_s)
     status = jnp.where(valid, jnp.where(ok, result.status, Status.NONFINITE),
