@@ -77,3 +77,57 @@ def dense_solve(a, b):
 
     x = jax.lax.fori_loop(0, k, back, jnp.zeros_like(y))
     return x[:, 0] if vec else x
+
+
+def sequential_when_batched(fun):
+    """`fun` (pytree arguments, array outputs), which under `jax.vmap` runs member by member
+    (`lax.map` over the batched arguments) instead of as one batched LAPACK call. jaxlib
+    0.10's batched CPU LAPACK kernels split the batch over XLA's intra-op thread pool and block
+    until it finishes (`jax::ParallelBatchMap`); called from a pool thread while the other is
+    busy, that deadlocks (seen in a vmapped `lapack_dtrsm_ffi`, BENCHMARKS.md). Member-by-member
+    calls have no batch to split, and batched LAPACK on CPU runs member by member anyway. Not
+    differentiable: for solver internals that the implicit function theorem bypasses, and
+    initial guesses."""
+    wrapped = jax.custom_batching.custom_vmap(fun)
+
+    @wrapped.def_vmap
+    def rule(axis_size, in_batched, *args):
+        leaves, tree = jax.tree_util.tree_flatten(args)
+        flags = jax.tree_util.tree_leaves(in_batched)
+        batched = [x for x, b in zip(leaves, flags) if b]
+
+        def one(xs):
+            it = iter(xs)
+            return fun(*jax.tree_util.tree_unflatten(
+                tree, [next(it) if b else x for x, b in zip(leaves, flags)]))
+
+        out = jax.lax.map(one, batched)
+        return out, jax.tree_util.tree_map(lambda _: True, out)
+
+    return wrapped
+
+
+@sequential_when_batched
+def cholesky_solve(a, b):
+    """Solve a x = b for symmetric positive definite a by Cholesky (LAPACK); x is NaN where a
+    is not positive definite (the factorisation's NaNs propagate)."""
+    return jax.scipy.linalg.cho_solve((jnp.linalg.cholesky(a), True), b)
+
+
+@sequential_when_batched
+def complete_qr(a):
+    """(Q, R) of the complete QR factorisation of a (LAPACK)."""
+    return jnp.linalg.qr(a, mode="complete")
+
+
+def small_triangular_solve(r, b, lower):
+    """Solve r x = b for a small triangular r (k <= ~8; b (k,) or (k, m)) by substitution
+    written out element by element: differentiable, no LAPACK call."""
+    k = r.shape[0]
+    x = [None] * k
+    order = range(k) if lower else reversed(range(k))
+    for i in order:
+        known = [j for j in range(k) if x[j] is not None]
+        acc = b[i] - sum(r[i, j] * x[j] for j in known) if known else b[i]
+        x[i] = acc / r[i, i]
+    return jnp.stack(x)

@@ -80,7 +80,7 @@ from jaxlpm.problems.relative import control_scale, cost_scale, transfer_ocp  # 
 from jaxlpm.problems.transcription import (equality, equality_jacobian,  # noqa: E402
                                            lagrangian_hessian, objective)
 from jaxlpm.solvers import newton_transfer  # noqa: E402
-from jaxlpm.solvers.condensed import CondensedLVLH  # noqa: E402
+from jaxlpm.solvers.condensed import CondensedSecondOrder  # noqa: E402
 from jaxlpm.solvers.newton import _kkt_step, kkt_residual  # noqa: E402
 from jaxlpm.solvers.transfer import _warm_start  # noqa: E402
 from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
@@ -326,7 +326,7 @@ def profile_condensed(prob, grid, sol):
     """Time the pieces of one condensed solve, each jitted alone at the warm start."""
     ocp, _, _ = transfer_ocp(prob, grid)
     z0 = _warm_start(prob, ocp, grid)
-    la = CondensedLVLH(ocp, grid)
+    la = CondensedSecondOrder(ocp, grid)
     lam = la.first_multipliers(z0)
     prep = la.prepare(z0, lam)
     H = la.hessian(prep, z0, lam)
@@ -334,7 +334,7 @@ def profile_condensed(prob, grid, sol):
     c = equality(z0, ocp, grid)
 
     def with_la(fn):
-        return lambda *a: fn(CondensedLVLH(ocp, grid), *a)
+        return lambda *a: fn(CondensedSecondOrder(ocp, grid), *a)
 
     pieces = {
         "transfer_ocp (Kepler, chief node data)": (lambda p: transfer_ocp(p, grid)[0], (prob,)),
@@ -342,11 +342,11 @@ def profile_condensed(prob, grid, sol):
             (lambda p: _warm_start(p, transfer_ocp(p, grid)[0], grid), (prob,)),
         "kkt_residual (grad L by autodiff, c)":
             (lambda z, l: kkt_residual(jnp.concatenate([z, l]), ocp, grid), (z0, lam)),
-        "prepare (drift Jacobians, null-space map T 585 x 183)":
+        "prepare (Jacobians, null-space basis)":
             (with_la(lambda la, z, l: la.prepare(z, l)), (z0, lam)),
-        "hessian (65 point blocks 9 x 9)": (with_la(lambda la, z, l: la.hessian(None, z, l)),
-                                            (z0, lam)),
-        "solve (T^T H T, 183 x 183 Cholesky, multipliers)":
+        "hessian (null-space map T 585 x 183, point blocks, T^T H T)":
+            (with_la(lambda la, pr, z, l: la.hessian(pr, z, l)), (prep, z0, lam)),
+        "solve (183 x 183 Cholesky, multipliers)":
             (with_la(lambda la, pr, H, g, c: la.solve(pr, H, g, c, 0.0, 0.0)), (prep, H, g, c)),
     }
     out = {}

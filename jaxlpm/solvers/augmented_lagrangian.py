@@ -37,7 +37,7 @@ from ..implicit import root
 from ..problems.ocp import PathPenalty
 from ..problems.transcription import equality, n_variables, objective, path_values
 from ..status import Status
-from .newton import NewtonOptions, _least_squares_multipliers, _newton_loop
+from .newton import DenseKKT, NewtonOptions, _newton_loop
 
 _RUNNING = -1
 
@@ -137,7 +137,7 @@ def al_kkt_residual(w, ocp, grid):
                             jnp.minimum(-G, mu).reshape(-1), jnp.minimum(-B, mu_b)])
 
 
-def _outer_loop(w0, ocp, grid, options: ALOptions):
+def _outer_loop(w0, ocp, grid, options: ALOptions, linear_algebra=DenseKKT):
     n, m = _sizes(ocp, grid)[:2]
     z0, lam0, mu0, nu0, mub0 = _split(w0, ocp, grid)
     opts = options
@@ -146,18 +146,23 @@ def _outer_loop(w0, ocp, grid, options: ALOptions):
 
     def body(s):
         wz, pen, k, inner_total, v_prev, hist, _, _ = s
-        w_in, (st_in, it_in, _, _) = _newton_loop(wz, ocp.replace(penalty=pen), grid, opts.inner)
+        w_in, (st_in, it_in, _, _) = _newton_loop(wz, ocp.replace(penalty=pen), grid, opts.inner,
+                                                  linear_algebra)
         z = w_in[:n]
         G, H, B = path_values(z, ocp, grid)
         rho = pen.rho
         # a subproblem stopped by its iteration limit is continued, warm, with the same
         # multipliers and penalty (updates from a point still moving fast would mislead
-        # both); one whose line search stalled is as solved as Newton can make it
-        solved = (st_in == Status.SUCCESS) | (st_in == Status.STALLED)
+        # both), unless that continuation left the path violation where it was; one whose
+        # line search stalled is as solved as Newton can make it
+        v_now = _violation(G, H, B)
+        stuck = (st_in == Status.MAX_ITERATIONS) & (k > 0) & (
+            v_now >= 0.99 * hist[jnp.maximum(k - 1, 0)])
+        solved = (st_in == Status.SUCCESS) | (st_in == Status.STALLED) | stuck
         mu = jnp.where(solved, jnp.maximum(pen.inequality + rho * G, 0.0), pen.inequality)
         nu = jnp.where(solved, pen.equality + rho * H, pen.equality)
         mu_b = jnp.where(solved, jnp.maximum(pen.bounds + rho * B, 0.0), pen.bounds)
-        v = _violation(G, H, B)
+        v = v_now
         comp = _complementarity(G, mu, B, mu_b)
         progress = jnp.maximum(
             _violation(jnp.zeros_like(G), H, jnp.zeros_like(B)),
@@ -188,19 +193,20 @@ def _outer_loop(w0, ocp, grid, options: ALOptions):
 
 
 @functools.lru_cache(maxsize=None)
-def _solver(options: ALOptions):
+def _solver(options: ALOptions, linear_algebra=DenseKKT):
     @root(al_kkt_residual, has_aux=True, zero_nonfinite=True)
     def solve(w0, ocp, grid):
-        return _outer_loop(w0, ocp, grid, options)
+        return _outer_loop(w0, ocp, grid, options, linear_algebra)
     return solve
 
 
 def augmented_lagrangian(ocp, grid, z0, multipliers0=None,
-                         options: ALOptions = ALOptions()) -> ALResult:
+                         options: ALOptions = ALOptions(), linear_algebra=DenseKKT) -> ALResult:
     """Solve the transcribed problem with its path constraints and final-s bounds from z0.
 
-    multipliers0: equality multipliers (default: least squares at z0); the path multipliers
-    start at 0. Returns an `ALResult`, differentiable with respect to the problem's array
+    multipliers0: equality multipliers (default: the linear algebra's first estimate, least
+    squares for `DenseKKT`); the path multipliers start at 0. linear_algebra: how the inner
+    Newton-KKT systems are solved (see `newton_kkt`). Returns an `ALResult`, differentiable with respect to the problem's array
     leaves by the implicit function theorem at the KKT point.
     """
     ocp.validate()
@@ -217,9 +223,12 @@ def augmented_lagrangian(ocp, grid, z0, multipliers0=None,
         lo, hi = (float(b) for b in jnp.asarray(ocp.final_bounds))
         if not lo < hi:
             raise ValueError(f"final_bounds must satisfy sf_min < sf_max, got [{lo}, {hi}]")
-    lam0 = _least_squares_multipliers(z0, ocp, grid) if multipliers0 is None else multipliers0
+    if multipliers0 is None:          # a starting point: not differentiated
+        fixed = jax.lax.stop_gradient((ocp, z0))
+        multipliers0 = linear_algebra(fixed[0], grid).first_multipliers(fixed[1])
+    lam0 = multipliers0
     zeros = jnp.zeros(sg[0] * sg[1] + sh[0] * sh[1] + sb[0], z0.dtype)
-    w, (status, st_in, k, inner_total, hist, rho) = _solver(options)(
+    w, (status, st_in, k, inner_total, hist, rho) = _solver(options, linear_algebra)(
         jnp.concatenate([z0, lam0, zeros]), ocp, grid)
     z, lam, mu, nu, mu_b = _split(w, ocp, grid)
     fixed = jax.lax.stop_gradient(w)

@@ -1,133 +1,232 @@
-"""Condensed Newton-KKT linear algebra for the LVLH transfer on LGL grids.
+"""Condensed Newton-KKT linear algebra for fully actuated second-order problems.
 
-The LGL transcription of `jaxlpm.problems.relative` (models "two-body" and "j2", every thrust
-axis present, fixed boundary states) collocates x = [r, v] at all N + 1 points with
-dr/ds = q v and dv/ds = d(s, x) + q u (d the drift, q = n dt/ds). Its linearised defects
+For problems whose state is x = [r, v] (3 + 3) with dynamics
 
-    D dR - h q dV = -c_r,      D dV - h (dd/dx) dx - h q dU = -c_v       (h = (s_f - s_0) / 2)
+    dr/ds = q(s) v,      dv/ds = d(s, x) + b(s) u        (q, b scalars per point)
+
+and fixed boundary states (the LVLH transfers of `jaxlpm.problems.relative` with every thrust
+axis, the minimum-time HCW transfer of `jaxlpm.problems.min_time`), the linearised collocation
+defects of every scheme
+
+    D dR - h q dV = -c_r,      D dV - h (dd/dx) dx - h b dU = -c_v       (h = (s_f - s_0) / 2)
 
 are solved, for any displacement dR of the positions, by dV and then dU point by point (the
 inverse-dynamics elimination `kkt_law` uses for the linear model, Mei 2010 eq. 12). The
-boundary rows fix dR_0, dR_N and two rows of D dR per axis, so with the interior positions
-written as dR_int = (particular) + Z y, Z an orthonormal basis of the null space of
-D[[0, N], 1:N], every step satisfying the linearised constraints is
+boundary rows fix dR and dV at the two ends; what is left is a few linear conditions per axis
+on the interior positions (LGL: the two end velocities through rows of D; LGR: the initial
+velocity; LG: the two quadrature rows), so with the interior positions written as a particular
+solution plus Z y (Z an orthonormal basis of those conditions' null space), every step that
+satisfies the linearised constraints is
 
-    p = T y + p_0(c),      y in R^{3 (N - 3)},
+    p = T [y; ds_f] + p_0(c)          (ds_f only with a free final s)
 
 and the Newton-KKT step of `newton_kkt` is the null-space solution (Nocedal & Wright 2006,
-§16.2): (T^T (H + dw I) T) y = -T^T (g + (H + dw I) p_0), with H the Lagrangian Hessian, block
-diagonal over the points. Its multipliers follow from the stationarity rows A^T lambda =
--(g + (H + dw I) p) in the same order (dU gives the velocity-defect multipliers, dV the
-position-defect ones, the interior dR rows the two end ones by least squares, the end rows the
-boundary multipliers). At N = 64 that is a 183 x 183 Cholesky factorisation, whose success is
-exactly the KKT matrix's correct inertia (a positive definite reduced Hessian), in place of the
-dense 987 x 987 LU. For a given (z, lambda) the step is `DenseKKT`'s; the first multiplier
-estimate (the formulas above for g, not least squares) and the second-order correction (the
-particular solution p_0, not the least-norm one) differ, so iterates differ while converging to
-the same KKT point.
+§16.2): (T^T (H + dw I) T) [y; ds_f] = -T^T (g + (H + dw I) p_0), H the Lagrangian Hessian
+(block diagonal over the points, plus the dense s_f row and column). Since A p_0(r) = -r for
+every r, the multipliers of a consistent system A^T lambda = -(g + (H + dw I) p) are
+lambda = p_0^T (g + (H + dw I) p), one reverse-mode pass through p_0. At N = 64 (LGL) that is a
+183 x 183 Cholesky factorisation, whose success is exactly the KKT matrix's correct inertia (a
+positive definite reduced Hessian), instead of the dense 987 x 987 LU.
+
+For a given (z, lambda) the step is `DenseKKT`'s; the first multiplier estimate (p_0^T g, not
+least squares) and the second-order correction (p_0, not the least-norm one) differ, so
+iterates differ while converging to the same KKT point.
 """
 
 import jax
 import jax.numpy as jnp
 
-from ..problems.transcription import (collocation_s, n_boundary, objective, point_hessians,
+from ..linalg import cholesky_solve, complete_qr, small_triangular_solve
+from ..problems.transcription import (_pointwise_jacobian, collocated_rows, equality,
+                                      lagrangian, n_state_rows, objective, point_hessians,
                                       point_indices, unpack)
 
 
-class CondensedLVLH:
-    """`newton_kkt`'s linear algebra (see `DenseKKT` for the interface) for `transfer_ocp`'s
-    LVLH transcription on an LGL grid with every thrust axis (the caller checks)."""
+class CondensedSecondOrder:
+    """`newton_kkt`'s linear algebra (the interface of `DenseKKT`) for the problems above, on
+    LGL, LG or LGR grids. The caller guarantees the structure (q, b and dd/dx are read off the
+    dynamics' Jacobian at each point) and boundary rows x0 - x0*, xf - xf* with no terminal
+    cost on the states."""
 
     def __init__(self, ocp, grid):
         self.ocp, self.grid = ocp, grid
-        self.h = 0.5 * (ocp.sf - ocp.s0)
-        self.q = ocp.node_data[-1]
-        Qc, Rc = jnp.linalg.qr(grid.D[jnp.array([0, -1])][:, 1:-1].T, mode="complete")
-        self.Q, self.R1 = Qc, Rc[:2, :2]
+        self.n_rows = n_state_rows(grid)
+        self.n_z = self.n_rows * 6 + grid.n * 3
+        self.free = bool(ocp.free_final)
         self.idx = point_indices(ocp, grid)              # (n, 9) positions of (x_i, u_i) in z
 
-    def _drift_jacobians(self, z):
-        """dd/dx at the points, (n, 3, 6)."""
-        ocp = self.ocp
-        X, _, _ = unpack(z, ocp, self.grid)
-        zero = jnp.zeros(ocp.n_u, z.dtype)
-        drift = lambda si, x, d: ocp.dynamics(si, x, zero, d, ocp.params)[3:]
-        return jax.vmap(jax.jacfwd(drift, argnums=1))(collocation_s(ocp, self.grid), X,
-                                                      ocp.node_data)
+    # ------------------------------------------------------------------ the linear maps
+    def _coefficients(self, z):
+        """(h, q, b, dd/dx (n, 3, 6), dc/ds_f or None) at z."""
+        X, U, sf = unpack(z, self.ocp, self.grid)
+        J = _pointwise_jacobian(self.ocp, self.grid, X, U, sf)      # (n, 6, 9)
+        a_sf = None
+        if self.free:
+            e_sf = jnp.zeros(z.size, z.dtype).at[-1].set(1.0)
+            a_sf = jax.jvp(lambda v: equality(v, self.ocp, self.grid), (z,), (e_sf,))[1]
+        return 0.5 * (sf - self.ocp.s0), J[:, 0, 3], J[:, 3, 6], J[:, 3:, :6], a_sf
 
-    def _displacement(self, y, r, Gd):
-        """The p (flat, like z) with A p = -r whose interior position displacement has
-        null-space coordinates y (N - 3, 3)."""
-        D, h, q, n = self.grid.D, self.h, self.q[:, None], self.grid.n
+    def _complete(self, dR, r, coef):
+        """(dX (rows, 6), dU (n, 3), unmet conditions (k, 3)) for position displacements dR
+        (rows, 3) with the ends already at the boundary values: dV and dU from the collocated
+        defects (linearised, right-hand side -r), dV at non-collocated rows from the boundary
+        rows, and the linearised constraints not yet imposed."""
+        g = self.grid
+        h, q, b, Gd, _ = coef
+        n, nr = g.n, self.n_rows
         c = r[:6 * n].reshape(n, 6)
-        b = r[6 * n:]
-        dR0, dRN = -b[0:3], -b[6:9]
-        e0 = -h * q[0] * b[3:6] - c[0, :3]                # (D dR)_0 that makes dV_0 = -b_v0
-        eN = -h * q[-1] * b[9:12] - c[-1, :3]
-        rhs = jnp.stack([e0 - D[0, 0] * dR0 - D[0, -1] * dRN,
-                         eN - D[-1, 0] * dR0 - D[-1, -1] * dRN])
-        interior = (self.Q[:, :2] @ jax.scipy.linalg.solve_triangular(self.R1.T, rhs, lower=True)
-                    + self.Q[:, 2:] @ y)
-        dR = jnp.concatenate([dR0[None], interior, dRN[None]])
-        dV = (D @ dR + c[:, :3]) / (h * q)
+        bc = r[r.size - 12:]
+        col, sup = collocated_rows(g), {"LGL": slice(None), "LG": slice(None, -1),
+                                        "LGR": slice(None)}[g.scheme]
+        dV_c = (g.D @ dR[sup] + c[:, :3]) / (h * q[:, None])
+        dV = jnp.zeros((nr, 3), dR.dtype).at[col].set(dV_c)
+        if g.scheme == "LG":
+            dV = dV.at[0].set(-bc[3:6]).at[-1].set(-bc[9:12])
+        elif g.scheme == "LGR":
+            dV = dV.at[-1].set(-bc[9:12])
         dX = jnp.concatenate([dR, dV], axis=1)
-        dU = (D @ dV - h * jnp.einsum("iab,ib->ia", Gd, dX) + c[:, 3:]) / (h * q)
-        return jnp.concatenate([dX.ravel(), dU.ravel()])
+        dd = jnp.einsum("iab,ib->ia", Gd, dX[col])
+        dU = (g.D @ dV[sup] - h * dd + c[:, 3:]) / (h * b[:, None])
+        if g.scheme == "LGL":
+            unmet = jnp.stack([dV[0] + bc[3:6], dV[-1] + bc[9:12]])
+        elif g.scheme == "LGR":
+            unmet = (dV[0] + bc[3:6])[None]
+        else:                                   # the quadrature row, linearised
+            quad = r[6 * n:6 * n + 6]
+            flow = h * (g.weights @ jnp.concatenate([q[:, None] * dV_c,
+                                                     dd + b[:, None] * dU], axis=1))
+            unmet = (dX[-1] - dX[0] - flow + quad).reshape(2, 3)
+        return dX, dU, unmet
 
-    def _multipliers(self, r_pts, Gd):
-        """lambda with A^T lambda = -r (r at the points, (n, 9)), exact in every row but the
-        interior position rows (least squares there; consistent at a KKT step)."""
-        D, h, q = self.grid.D, self.h, self.q[:, None]
-        r_R, r_V, r_U = r_pts[:, :3], r_pts[:, 3:6], r_pts[:, 6:]
-        beta = r_U / (h * q)                                       # U rows
-        a = h * jnp.einsum("iab,ia->ib", Gd, beta)                 # h (dd/dx)^T beta, (n, 6)
-        a_r, a_v = a[:, :3], a[:, 3:]
-        Dtb = D.T @ beta
-        alpha = (Dtb - a_v + r_V) / (h * q)                        # V rows (interior)
-        rhs = -r_R[1:-1] + a_r[1:-1] - D[1:-1, 1:-1].T @ alpha[1:-1]
-        ends = jax.scipy.linalg.solve_triangular(self.R1, self.Q[:, :2].T @ rhs, lower=False)
-        alpha = alpha.at[0].set(ends[0]).at[-1].set(ends[1])
-        nu_r = -r_R - D.T @ alpha + a_r                            # R rows at the ends
-        nu_v = -r_V - Dtb + h * q * alpha + a_v                    # V rows at the ends
-        defects = jnp.concatenate([alpha, beta], axis=1).ravel()
-        return jnp.concatenate([defects, nu_r[0], nu_v[0], nu_r[-1], nu_v[-1]])
+    def _ends(self, r, dtype):
+        """dR with the end rows from the boundary rows (x0 - x0*, xf - xf*) and zero inside."""
+        bc = r[r.size - 12:]
+        return jnp.zeros((self.n_rows, 3), dtype).at[0].set(-bc[0:3]).at[-1].set(-bc[6:9])
 
+    def _null_space(self, coef, dtype):
+        """(Q1, R1, Z): QR of the unmet conditions' matrix C (linear in the interior
+        positions, right-hand side 0) transposed: C^T = Q1 R1, Z spans C's null space."""
+        m = self.n_rows - 2
+        zero_r = self._zero_r(dtype)
+
+        def unmet(v):
+            dR = jnp.zeros((self.n_rows, 3), dtype).at[1:-1].set(v.reshape(m, 3))
+            return self._complete(dR, zero_r, coef)[2].ravel()
+
+        C = jax.jacrev(unmet)(jnp.zeros(3 * m, dtype))                 # (3k, 3m)
+        Qc, Rc = complete_qr(C.T)
+        k = C.shape[0]
+        return Qc[:, :k], Rc[:k, :k], Qc[:, k:]
+
+    def _step(self, basis, w, r):
+        """The z-shaped step (ds_f last if free) with A p = -r whose interior positions have
+        null-space coordinates y = w[:ny] (and ds_f = w[-1] if free): the affine map T w +
+        p_0(r)."""
+        coef, (Q1, R1, Z) = basis
+        dtype = r.dtype
+        dsf = w[-1] if self.free else 0.0
+        if self.free:
+            r = r + dsf * coef[4]
+        m = self.n_rows - 2
+        dR = self._ends(r, dtype)
+        e = -self._complete(dR, r, coef)[2].ravel()
+        dR_int = Q1 @ small_triangular_solve(R1.T, e, lower=True) + Z @ w[:Z.shape[1]]
+        dX, dU, _ = self._complete(dR.at[1:-1].set(dR_int.reshape(m, 3)), r, coef)
+        parts = [dX.ravel(), dU.ravel()]
+        if self.free:
+            parts.append(jnp.reshape(dsf, (1,)))
+        return jnp.concatenate(parts)
+
+    def _particular(self, basis, r):
+        """p_0(r): A p_0 = -r (interior null-space coordinates and ds_f zero)."""
+        return self._step(basis, jnp.zeros(basis[1][2].shape[1] + int(self.free), r.dtype), r)
+
+    def _zero_r(self, dtype):
+        n_c = jax.eval_shape(lambda: equality(jnp.zeros(self.n_z + int(self.free)),
+                                              self.ocp, self.grid)).shape[0]
+        return jnp.zeros(n_c, dtype)
+
+    def _basis(self, z):
+        coef = self._coefficients(z)
+        return coef, self._null_space(coef, z.dtype)
+
+    # ------------------------------------------------------------------ the interface
     def prepare(self, z, lam):
-        Gd = self._drift_jacobians(z)
-        ny = 3 * (self.grid.n - 4)
-        zero_r = jnp.zeros(6 * self.grid.n + n_boundary(self.ocp, self.grid), z.dtype)
-        T = jax.jacfwd(lambda y: self._displacement(y.reshape(-1, 3), zero_r, Gd))(
-            jnp.zeros(ny, z.dtype))
-        return Gd, T[self.idx]                                      # T: (n, 9, ny)
+        """The null-space basis at z (the second-order correction needs it on every pass)."""
+        return self._basis(z)
+
+    def _null_space_map(self, basis, dtype):
+        """T = d p / d w (n_var, n_w): the steps of the null-space directions (and ds_f)."""
+        coef, (_, _, Z) = basis
+        zero_r = self._zero_r(dtype)
+        m = self.n_rows - 2
+
+        def column(dR_int):
+            dR = jnp.zeros((self.n_rows, 3), dtype).at[1:-1].set(dR_int.reshape(m, 3))
+            dX, dU, _ = self._complete(dR, zero_r, coef)
+            return jnp.concatenate([dX.ravel(), dU.ravel()] + [jnp.zeros(1, dtype)] * self.free)
+
+        T = jax.vmap(column, out_axes=1)(Z.T)
+        if self.free:                        # the ds_f column
+            e_sf = jnp.zeros(Z.shape[1] + 1, dtype).at[-1].set(1.0)
+            T = jnp.concatenate([T, self._step(basis, e_sf, zero_r)[:, None]], axis=1)
+        return T
 
     def hessian(self, prep, z, lam):
-        return point_hessians(z, lam, self.ocp, self.grid)
+        """(point blocks (n, 9, 9), s_f column of the Lagrangian Hessian or None, the reduced
+        Hessian T^T H T, T). Where the state rows of every block vanish (dynamics and path
+        terms linear in x, as for HCW), only the control rows enter T^T H T."""
+        T = self._null_space_map(prep, z.dtype)
+        blocks = point_hessians(z, lam, self.ocp, self.grid)
+        Tp = T[self.idx]                                            # (n, 9, n_w)
+        M = jax.lax.cond(
+            jnp.any(blocks[:, :6, :] != 0),
+            lambda: jnp.einsum("iak,iab,ibl->kl", Tp, blocks, Tp),
+            lambda: jnp.einsum("iak,iab,ibl->kl", Tp[:, 6:], blocks[:, 6:, 6:], Tp[:, 6:]))
+        col = None
+        if self.free:
+            e_sf = jnp.zeros(z.size, z.dtype).at[-1].set(1.0)
+            col = jax.jvp(lambda v: jax.grad(lagrangian)(v, lam, self.ocp, self.grid), (z,),
+                          (e_sf,))[1]
+            cross = T[:-1].T @ col[:-1]
+            M = M + jnp.outer(cross, T[-1]) + jnp.outer(T[-1], cross) \
+                + col[-1] * jnp.outer(T[-1], T[-1])
+        return blocks, col, M, T
 
     def hessian_scale(self, H):
-        return jnp.max(jnp.abs(jnp.diagonal(H, axis1=1, axis2=2)))
+        blocks, col = H[:2]
+        scale = jnp.max(jnp.abs(jnp.diagonal(blocks, axis1=1, axis2=2)))
+        return scale if col is None else jnp.maximum(scale, jnp.abs(col[-1]))
+
+    def _hessian_times(self, H, dw, p):
+        """(H + dw I) p for the structured H."""
+        blocks, col = H[:2]
+        out = dw * p
+        out = out.at[self.idx].add(jnp.einsum("iab,ib->ia", blocks, p[self.idx]))
+        if col is not None:
+            out = out + col * p[-1]
+            out = out.at[-1].add(col[:-1] @ p[:-1])
+        return out
 
     def solve(self, prep, H, g, c, dw, dc):
         """(p, lambda+, ok): the null-space step; ok when the reduced Hessian's Cholesky
         factor (and so p) is finite, i.e. the KKT matrix has the right inertia."""
         del dc                              # the constraint rows are eliminated exactly
-        Gd, T = prep
-        Hd = H + dw * jnp.eye(H.shape[-1], dtype=H.dtype)
-        p0 = self._displacement(jnp.zeros((self.grid.n - 4, 3), g.dtype), c, Gd)
-        g_pts, p0_pts = g[self.idx], p0[self.idx]
-        M = jnp.einsum("iak,iab,ibl->kl", T, Hd, T)
-        rhs = -jnp.einsum("iak,ia->k", T, g_pts + jnp.einsum("iab,ib->ia", Hd, p0_pts))
-        y = jax.scipy.linalg.cho_solve((jnp.linalg.cholesky(M), True), rhs)
-        p_pts = jnp.einsum("iak,k->ia", T, y) + p0_pts
-        p = jnp.zeros_like(g).at[self.idx].set(p_pts)
-        lam_new = self._multipliers(g_pts + jnp.einsum("iab,ib->ia", Hd, p_pts), Gd)
+        T = H[3]
+        p0, p0_vjp = jax.vjp(lambda r: self._particular(prep, r), c)
+        M = jax.lax.cond(dw > 0, lambda: H[2] + dw * (T.T @ T), lambda: H[2])
+        w = cholesky_solve(M, -T.T @ (g + self._hessian_times(H, dw, p0)))
+        p = T @ w + p0
+        lam_new = p0_vjp(g + self._hessian_times(H, dw, p))[0]
         return p, lam_new, jnp.all(jnp.isfinite(p)) & jnp.all(jnp.isfinite(lam_new))
 
     def correction(self, prep, r):
-        """A d with A d = -r (interior null-space part zero; not least-norm)."""
-        Gd, _ = prep
-        return self._displacement(jnp.zeros((self.grid.n - 4, 3), r.dtype), r, Gd)
+        """A d with A d = -r (not least-norm)."""
+        return self._particular(prep, r)
 
     def first_multipliers(self, z):
-        """The multipliers that make the stationarity rows vanish for the gradient at z."""
+        """p_0^T grad f: exact multipliers wherever the stationarity rows allow."""
         g = jax.grad(lambda v: objective(v, self.ocp, self.grid))(z)
-        return self._multipliers(g[self.idx], self._drift_jacobians(z))
+        basis = self._basis(z)
+        c = equality(z, self.ocp, self.grid)
+        return jax.vjp(lambda r: self._particular(basis, r), c)[1](g)[0]

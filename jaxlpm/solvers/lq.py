@@ -22,12 +22,14 @@ kkt_law: Mei 2010 §3.2, eq. (12)-(16): the state equations collocated with the 
     eq. (16); the multipliers gamma of eq. (16) are then recovered from its stationarity.
 """
 
+import functools
+import operator
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..dynamics import ya_inplane_fundamental, ya_inplane_inverse, ya_outofplane_fundamental
-from ..dynamics.stm import IP, OP
+from ..dynamics.stm import IP, OP, ya_entries
 from ..linalg import RCOND_SINGULAR, qr_rcond, small_spd_solve
 from ..orbits import lvlh_to_th, th_to_lvlh, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
@@ -76,44 +78,113 @@ def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, s
                     method=method, **outputs)
 
 
-def _stm_block(F0, F1, Finv, vel, J, X0, XT, rho, c, half, S):
-    """Mei 2010 eq. (9)-(10) for one decoupled block (in-plane k = 4 or out-of-plane k = 2).
+def _materialized(*xs):
+    """The arrays xs (equal shapes), each computed once and stored.
 
-    F0, F1, Finv: (k, k, n) YA fundamental-matrix parts at the nodes (matrix axes first);
-    vel: the block's velocity slots (where B(f) = I/rho^3 acts), removed thrust axes dropped;
-    J: (n,) k^2 (t_i - t_0); c_i = (fT - f0)/2 w_i rho_i^2; S: the LGL integration matrix.
-    Psi_i = (F0_T + (J_T - J_i) F1_T) Binv_i, so the Gramian is
-    A S0 A^T + A S1 C^T + C S1 A^T + C S2 C^T with A = F0_T, C = F1_T and the moments
-    S_p = sum_i c_i (J_T - J_i)^p Binv_i Binv_i^T. Returns node-major arrays.
+    XLA:CPU has no multi-output loop fusion and fuses a unary producer (sin, cos) into every
+    consumer fusion, so a node array that feeds dozens of fusions has its whole expression,
+    transcendentals included, re-evaluated in each; `lax.optimization_barrier` is removed
+    before fusion on CPU. A product with the identity (exact in floating point for finite
+    values; a non-finite one makes the others NaN, and the status NONFINITE either way) is a
+    fusion boundary: its operands are evaluated once into a buffer.
     """
-    Binv = Finv[:, vel, :] / rho**3                                  # F^-1(f_i) B(f_i): (k, m, n)
-    Jt = J[-1] - J
-    outer = jnp.einsum("amn,bmn->abn", Binv, Binv)
-    S0, S1, S2 = (outer @ (c * Jt**p) for p in range(3))
-    A, C = F0[:, :, -1], F1[:, :, -1]
-    AS1C = A @ S1 @ C.T
-    Gram = A @ S0 @ A.T + AS1C + AS1C.T + C @ S2 @ C.T
-    d = XT - (A + J[-1] * C) @ (Finv[:, :, 0] @ X0)
-    neg_nu, rcond = small_spd_solve(Gram, d)
+    stacked = jnp.stack(xs)
+    return tuple(jnp.tensordot(jnp.eye(len(xs), dtype=stacked.dtype), stacked, axes=1))
+
+
+# Small matrices as nested lists (rows) of node arrays, per-problem scalars or Python numbers;
+# the Python number 0 is a structural zero, and products with it are skipped. Under vmap each
+# entry is one (batch, n) or (batch,) array, so every product below is a fused multiply-add
+# over the batch and the nodes (no small dots, no (k, k, n) arrays).
+
+def _zero(x):
+    return isinstance(x, (int, float)) and x == 0
+
+
+def _sum(terms):
+    """Sum of arrays or numbers; the structural zero 0.0 when there are none."""
+    return functools.reduce(operator.add, terms) if terms else 0.0
+
+
+def _mv(M, v):
+    """M v, skipping structural zeros."""
+    return [_sum([m * x for m, x in zip(row, v) if not (_zero(m) or _zero(x))]) for row in M]
+
+
+def _tr(M):
+    return [list(col) for col in zip(*M)]
+
+
+def _mm(A, B):
+    """A B, skipping structural zeros."""
+    return _tr([_mv(A, col) for col in _tr(B)])
+
+
+def _at_node(M, i):
+    """The entries of M at node i (numbers kept)."""
+    return [[x if isinstance(x, (int, float)) else x[..., i] for x in row] for row in M]
+
+
+def _gramian(A, C, Binv, c, Jt):
+    """G = sum_i c_i Psi_i Psi_i^T, Psi_i = (A + (J_T - J_i) C) Binv_i (A = F0(f_T),
+    C = F1(f_T), Binv_i = F^-1(f_i) B(f_i)): A S0 A^T + A S1 C^T + C S1 A^T + C S2 C^T from the
+    moments S_p = sum_i c_i (J_T - J_i)^p Binv_i Binv_i^T (structurally zero entries skipped)."""
+    k = len(Binv)
+    outer = [[_sum([x * y for x, y in zip(Binv[a], Binv[b]) if not (_zero(x) or _zero(y))])
+              for b in range(k)] for a in range(k)]
+    S0, S1, S2 = ([[outer[a][b] if _zero(outer[a][b]) else jnp.sum(w * outer[a][b], axis=-1)
+                    for b in range(k)] for a in range(k)] for w in (c, c * Jt, c * Jt * Jt))
+    AS1C = _mm(_mm(A, S1), _tr(C))
+    return [[p + q + r + s for p, q, r, s in zip(*rows)]
+            for rows in zip(_mm(_mm(A, S0), _tr(A)), AS1C, _tr(AS1C), _mm(_mm(C, S2), _tr(C)))]
+
+
+def _solve_block(Gram, d, slots):
+    """-G^-1 d for the Gramian block on `slots` (Mei 2010 eq. 10: nu); (nu, rcond, relative
+    stationarity residual |G nu + d| / |d|)."""
+    G = jnp.array([[Gram[a][b] for b in slots] for a in slots])
+    db = d[slots]
+    neg_nu, rcond = small_spd_solve(G, db)
     nu = -neg_nu
-    q = (A.T @ nu)[:, None] + (C.T @ nu)[:, None] * Jt               # Phi(fT, f_i)^T nu: (k, n)
-    U_act = -(rho**2) * jnp.einsum("amn,an->mn", Binv, q)            # existing axes: (m, n)
-    BU = jnp.einsum("amn,mn->an", Binv, U_act)                       # F^-1(f_j) B_j U_j
-    g = F0[:, :, 0] @ BU - (F1[:, :, 0] @ BU) * J                     # Phi(f0, f_j) B_j U_j
-    inner = X0[:, None] + half * (g @ S.T)
-    w = Finv[:, :, 0] @ inner
-    X = jnp.einsum("abn,bn->an", F0, w) + J * jnp.einsum("abn,bn->an", F1, w)
-    costates = jnp.einsum("abn,an->bn", Finv, q)                     # Phi(fT, f_i)^T nu
-    con_res = jnp.max(jnp.abs(X[:, -1] - XT))
-    dmax = jnp.max(jnp.abs(d))
-    stat_res = jnp.max(jnp.abs(Gram @ nu + d)) / jnp.where(dmax > 0, dmax, 1.0)
-    return X.T, U_act.T, costates.T, nu, con_res, stat_res, rcond
+    dmax = jnp.max(jnp.abs(db))
+    return nu, rcond, jnp.max(jnp.abs(G @ nu + db)) / jnp.where(dmax > 0, dmax, 1.0)
 
 
-def _interleave(ip, op):
-    """6-state arrays (..., 6) from in-plane (..., 4) and out-of-plane (..., 2) parts."""
-    out = jnp.zeros(ip.shape[:-1] + (6,), dtype=ip.dtype)
-    return out.at[..., IP].set(ip).at[..., OP].set(op)
+def _stm_nodes(F0, F1, Finv, vel, J, X0, XT, rho, c, half, S):
+    """Mei 2010 eq. (9)-(10) on the 6-state TH model, from the YA parts at the nodes.
+
+    F0, F1, Finv: 6x6 nested lists (`ya_entries`) of (n,) node arrays; vel: the velocity slots
+    where B(f) = I/rho^3 acts (removed thrust axes dropped); J: (n,) k^2 (t_i - t_0);
+    c_i = (fT - f0)/2 w_i rho_i^2; S: the LGL integration matrix. The Gramian is block
+    diagonal (in-plane 4x4, out-of-plane 2x2, structurally): the blocks are solved apart.
+    Returns the nodal states, the controls of the existing axes and the costates as lists of
+    (n,) arrays, nu (6,), the constraint and stationarity residuals and rcond.
+    """
+    ir = 1.0 / rho
+    ir3 = ir * ir * ir
+    Jt = J[-1] - J
+    Binv = [[row[m] * ir3 for m in vel] for row in Finv]                 # F^-1(f_i) B(f_i)
+    A, C, Finv0 = _at_node(F0, -1), _at_node(F1, -1), _at_node(Finv, 0)
+    Gram = _gramian(A, C, Binv, c, Jt)
+    y0 = _mv(Finv0, list(X0))                                            # F^-1(f0) X0
+    d = XT - jnp.stack([p + J[-1] * q for p, q in zip(_mv(A, y0), _mv(C, y0))])
+    (nu_ip, rc_ip, st_ip), (nu_op, rc_op, st_op) = (_solve_block(Gram, d, IP),
+                                                    _solve_block(Gram, d, OP))
+    by_slot = dict(zip([*IP, *OP], [*nu_ip, *nu_op]))
+    nu = jnp.stack([by_slot[i] for i in range(6)])
+    q = [p + Jt * r for p, r in zip(_mv(_tr(A), list(nu)), _mv(_tr(C), list(nu)))]
+    costates = _mv(_tr(Finv), q)                                         # Phi(fT, f_i)^T nu
+    U = [-ir * costates[m] for m in vel]                                 # -rho^2 B^T costates
+    BU = [_sum([b * u for b, u in zip(row, U)]) for row in Binv]          # F^-1(f_j) B_j U_j
+    # F^-1(f0) Phi(f0, f_j) B_j U_j = (I - J_j F^-1(f0) F1(f0)) F^-1(f_j) B_j U_j, integrated
+    g = [jnp.broadcast_to(b if _zero(h) else b - J * h, J.shape)
+         for b, h in zip(BU, _mv(_mm(Finv0, _at_node(F1, 0)), BU))]
+    # w_i = F^-1(f0) [X_0 + (fT - f0)/2 sum_j S_ij Phi(f0, f_j) B_j U_j], X_i = F(f_i; J_i) w_i
+    w = list(jnp.stack(y0)[:, None] + half * (jnp.stack(g) @ S.T))
+    X = [p + J * r for p, r in zip(_mv(F0, w), _mv(F1, w))]
+    con_res = jnp.max(jnp.abs(jnp.stack([x[-1] for x in X]) - XT))
+    return (X, U, costates, nu, con_res, jnp.maximum(st_ip, st_op),
+            jnp.minimum(rc_ip, rc_op))
 
 
 def stm_law(problem, grid) -> Solution:
@@ -123,26 +194,26 @@ def stm_law(problem, grid) -> Solution:
 
     Nodal states by variation of constants with the LGL integration matrix S:
     X(f_i) = Phi(f_i, f0) [X_0 + (fT - f0)/2 sum_j S_ij Phi(f0, f_j) B_j U_j].
-    All STMs come from one evaluation of YA's F0, F1, F^-1 per node (Phi = (F0 + J F1) F^-1).
+    All STMs come from YA's F0, F1, F^-1 at the nodes (Phi = (F0 + J F1) F^-1), built from
+    sin f_i and cos f_i alone and never stored as matrices.
     """
     s = _setup(problem, grid)
-    e, k2, f, t, rho, half = s["e"], s["k2"], s["f"], s["t"], s["rho"], s["half"]
+    e, k2, f, half = s["e"], s["k2"], s["f"], s["half"]
+    sf, cf, t = _materialized(jnp.sin(f), jnp.cos(f), s["t"])
+    rho = 1.0 + e * cf                                   # _setup's rho, from the stored cos f
+    s = dict(s, rho=rho, t=t)
     J = k2 * (t - t[0])
-    c = half * grid.weights * rho**2
     axes = np.asarray(problem.thrust_axes)
-    F0, F1 = ya_inplane_fundamental(f, e)                              # (4, 4, n)
-    Finv = ya_inplane_inverse(f, e)
-    R = ya_outofplane_fundamental(f)                                    # (2, 2, n)
-    n = f.shape[0]
-    ip = _stm_block(F0, F1, Finv, np.array([2, 3])[axes[:2]], J, s["X0"][IP], s["XT"][IP],
-                    rho, c, half, grid.integration)
-    op = _stm_block(R, jnp.zeros_like(R), jnp.swapaxes(R, 0, 1), np.array([1])[axes[2:]], J,
-                    s["X0"][OP], s["XT"][OP], rho, c, half, grid.integration)
-    U = jnp.zeros((n, 3), dtype=rho.dtype)
-    U = U.at[:, np.flatnonzero(axes[:2])].set(ip[1]).at[:, 2 + np.flatnonzero(axes[2:])].set(op[1])
-    return _finish("stm", s, grid, _interleave(ip[0], op[0]), U, _interleave(ip[2], op[2]),
-                   _interleave(ip[3], op[3]), jnp.maximum(ip[4], op[4]),
-                   jnp.maximum(ip[5], op[5]), jnp.minimum(ip[6], op[6]))
+    vel = [3 + a for a in np.flatnonzero(axes)]          # slots of x~', y~', z~' thrust acts on
+    F0, F1, Finv = ya_entries(sf, cf, e)
+    X, U_act, costates, nu, con_res, stat_res, rcond = _stm_nodes(
+        F0, F1, Finv, vel, J, s["X0"], s["XT"], rho, half * grid.weights * rho**2, half,
+        grid.integration)
+    U = [jnp.zeros_like(rho)] * 3
+    for m, u in zip(vel, U_act):
+        U[m - 3] = u
+    return _finish("stm", s, grid, jnp.stack(X, axis=-1), jnp.stack(U, axis=-1),
+                   jnp.stack(costates, axis=-1), nu, con_res, stat_res, rcond)
 
 
 def _second_order_blocks(e, f):

@@ -20,6 +20,7 @@ from ..problems.transcription import (collocation_s, costates, objective, pack, 
                                       unpack)
 from ..status import Status
 from .augmented_lagrangian import ALOptions, augmented_lagrangian
+from .condensed import CondensedSecondOrder
 from .newton import newton_step
 from .solution import MinimumTimeSolution
 
@@ -32,7 +33,7 @@ def _energy_qp(ocp, grid, duration_nd):
     eo = energy_ocp(ocp, duration_nd)
     n_rows = state_tau(grid).shape[0]
     zero = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), eo.sf, eo)
-    z, _ = newton_step(eo, grid, zero)
+    z, _ = newton_step(eo, grid, zero, CondensedSecondOrder)
     return z, objective(z, eo, grid), eo
 
 
@@ -59,9 +60,10 @@ def _min_time_transfer(problem, grid, options: ALOptions) -> MinimumTimeSolution
     valid = problem.validity()
     problem = problem.sanitized(valid)
     ocp = min_time_ocp(problem, 0.0)
-    z0 = initial_guess(ocp, grid)
+    z0 = initial_guess(jax.lax.stop_gradient(ocp), grid)   # a starting point: not differentiated
     ocp = ocp.replace(sf=z0[-1])
-    result = augmented_lagrangian(ocp, grid, z0, options=options)
+    result = augmented_lagrangian(ocp, grid, z0, options=options,
+                                  linear_algebra=CondensedSecondOrder)
     X, U, sf = unpack(result.z, ocp, grid)
     n = problem.orbit.mean_motion
     state_s = ocp.s0 + 0.5 * (sf - ocp.s0) * (state_tau(grid) + 1.0)

@@ -114,15 +114,15 @@ def _least_squares_multipliers(z, ocp, grid):
     return -jax.scipy.linalg.solve(A @ A.T, A @ g, assume_a="pos")
 
 
-def newton_step(ocp, grid, z):
+def newton_step(ocp, grid, z, linear_algebra=None):
     """One full Newton-KKT step from z with zero multipliers: the exact solution when the
     problem is a QP (linear dynamics, quadratic cost), e.g. the linear transfer's KKT law.
-    Returns (z + p, multipliers)."""
+    linear_algebra: as in `newton_kkt` (default `DenseKKT`). Returns (z + p, multipliers)."""
+    la = (linear_algebra or DenseKKT)(ocp, grid)
     lam = jnp.zeros(equality(z, ocp, grid).shape, z.dtype)
-    g = jax.grad(objective)(z, ocp, grid)
-    p, lam_new, _ = _kkt_step(lagrangian_hessian(z, lam, ocp, grid),
-                              equality_jacobian(z, ocp, grid), g, equality(z, ocp, grid),
-                              0.0, 0.0)
+    prep = la.prepare(z, lam)
+    p, lam_new, _ = la.solve(prep, la.hessian(prep, z, lam), jax.grad(objective)(z, ocp, grid),
+                             equality(z, ocp, grid), 0.0, 0.0)
     return z + p, lam_new
 
 
@@ -327,7 +327,7 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
 
     linear_algebra: how each Newton-KKT system is solved: `DenseKKT` (default, any
     transcription) or a structured class with the same methods, e.g.
-    `jaxlpm.solvers.condensed.CondensedLVLH` (the LVLH transfer on LGL grids): the same
+    `jaxlpm.solvers.condensed.CondensedSecondOrder` (fully actuated second-order problems): the same
     steps, iterates and statuses, up to round-off.
 
     homotopy: optional `(ocp, t) -> ocp`, a module-level function (it keys the compiled
@@ -351,8 +351,9 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
                          f"got {multipliers0.shape}")
     if is_concrete(z0):
         check_finite("z0", z0)
-    if multipliers0 is None:
-        multipliers0 = linear_algebra(ocp, grid).first_multipliers(z0)
+    if multipliers0 is None:          # a starting point: not differentiated
+        fixed = jax.lax.stop_gradient((ocp, z0))
+        multipliers0 = linear_algebra(fixed[0], grid).first_multipliers(fixed[1])
     w, (status, k, hist, reg) = _solver(options, homotopy, linear_algebra)(
         jnp.concatenate([z0, multipliers0]), ocp, grid)
     z, lam = w[:n], w[n:]

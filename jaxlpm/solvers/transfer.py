@@ -15,9 +15,10 @@ from ..problems.relative import (control_scale, cost_scale, lvlh_state, model_st
                                  transfer_ocp)
 from ..problems.transcription import (collocated_rows, collocation_s, costates, objective,
                                       pack, state_tau, unpack)
+from ..linalg import sequential_when_batched
 from ..status import Status
 from .lq import kkt_law
-from .condensed import CondensedLVLH
+from .condensed import CondensedSecondOrder
 from .newton import DenseKKT, NewtonOptions, newton_kkt, newton_step
 from .solution import TransferSolution
 
@@ -43,6 +44,9 @@ def _warm_start(problem, ocp, grid):
     return pack(X, U_si / control_scale(problem), ocp.sf, ocp)
 
 
+_sequential_warm_start = sequential_when_batched(_warm_start)
+
+
 def separation_homotopy(ocp, t):
     """The nonlinear transfer with its boundary states scaled by t (0 < t <= 1), in the same
     scaled unknowns: with L = max(|r0|, |rf|) the solver's states are x/L, so scaling both
@@ -60,7 +64,7 @@ LINEAR_ALGEBRA = ("auto", "condensed", "dense")
 
 
 def _condensable(problem, grid):
-    return grid.scheme == "LGL" and problem.model != "linear" and all(problem.thrust_axes)
+    return problem.model != "linear" and all(problem.thrust_axes)
 
 
 def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
@@ -68,8 +72,8 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     """Solve `problem` (any model) on `grid` (any scheme) by Newton-KKT.
 
     linear_algebra: how each Newton-KKT system is solved: "dense" (`DenseKKT`, one LU of the
-    whole KKT matrix), "condensed" (`CondensedLVLH`: the same step from a 3 (N - 3)-unknown
-    null-space system; nonlinear models on LGL grids with every thrust axis) or "auto"
+    whole KKT matrix), "condensed" (`CondensedSecondOrder`: the same step from a 3 (N - 3)-unknown
+    null-space system; nonlinear models with every thrust axis) or "auto"
     (default: "condensed" where it applies, else "dense").
     warm_start=False starts from zero states and controls (the linear model then converges
     in one Newton step: it is a QP). On the nonlinear models a failed solve is retried by
@@ -82,8 +86,8 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     problem = problem.sanitized(valid)
     ocp, chief, ok = transfer_ocp(problem, grid)
     state_s = _state_s(ocp, grid)
-    if warm_start:
-        z0 = _warm_start(problem, ocp, grid)
+    if warm_start:       # an initial guess: not differentiated, member by member under vmap
+        z0 = _sequential_warm_start(*jax.lax.stop_gradient((problem, ocp)), grid)
     else:
         n_rows = state_tau(grid).shape[0]
         z0 = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp.sf, ocp)
@@ -94,8 +98,8 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     condensable = _condensable(problem, grid)
     if linear_algebra == "condensed" and not condensable:
         raise ValueError("linear_algebra='condensed' needs a nonlinear model ('two-body', "
-                         "'j2'), an LGL grid and every thrust axis; use 'dense' or 'auto'")
-    la = CondensedLVLH if condensable and linear_algebra != "dense" else DenseKKT
+                         "'j2') and every thrust axis; use 'dense' or 'auto'")
+    la = CondensedSecondOrder if condensable and linear_algebra != "dense" else DenseKKT
     result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy, linear_algebra=la)
     X, U, _ = unpack(result.z, ocp, grid)
     states = jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, state_s)
