@@ -288,10 +288,12 @@ def test_grid_layout_and_pytree():
             np.testing.assert_array_equal(sup, np.concatenate(([-1.0], pts)))
         else:
             np.testing.assert_array_equal(sup, np.concatenate((pts, [1.0])))
+        # fixed by (scheme, n): a leafless pytree (static under jit, never copied by vmap)
         leaves, treedef = jax.tree_util.tree_flatten(grid)
-        assert len(leaves) == 7
+        assert leaves == []
         rebuilt = jax.tree_util.tree_unflatten(treedef, leaves)
-        assert rebuilt.scheme == grid.scheme and rebuilt.n == grid.n
+        assert rebuilt == grid and hash(rebuilt) == hash(make_grid(grid.scheme, grid.n))
+        assert grid != make_grid(grid.scheme, grid.n + 1)
     g = lg(9)
     both = jax.jit(lambda gr, v, u: (gr.interpolate_state(v, 0.3), gr.interpolate_control(u, 0.3)))
     state, control = both(g, jnp.sin(g.support), jnp.cos(g.points))

@@ -24,7 +24,6 @@ Run:  PYTHONPATH=. python experiments/benchmarks/bench_lq_laws.py [--out results
 """
 
 import argparse
-import dataclasses
 import json
 import os
 import statistics
@@ -416,23 +415,17 @@ def stm_profile(probs, grid, batch):
     """Batched time of pieces of the STM law, each jitted alone, calling the library's own
     functions (no copy of the law): the prelude; the law's cost alone (not writing the nodal
     arrays, though it still computes them: the cost is zeroed unless every output is
-    finite); and the whole Solution twice: as `jax.vmap` returns it by default, with the
-    grid (an input shared by every member) broadcast into each member (its D and integration
-    matrices are 2 x 65 x 65 doubles per member), and with `out_axes` leaving it unbatched."""
-    one = jax.tree.map(lambda leaf: leaf[0], probs)
-    unbatched_grid = dataclasses.replace(
-        jax.tree.map(lambda _: 0, jax.eval_shape(lambda p: stm_law(p, grid), one)), grid=None)
-    stages = {   # label: (function of one problem, vmap out_axes)
+    finite); and the whole Solution as `jax.vmap` returns it (the grid, a leafless pytree, is
+    not copied into the members)."""
+    stages = {
         "_setup (Kepler solve, node times, TH boundary states)":
-            (lambda p: {k: v for k, v in _setup(p, grid).items() if k != "prob"}, 0),
-        "stm_law, cost only": (lambda p: stm_law(p, grid).cost, 0),
-        "stm_law, full Solution, grid unbatched (out_axes)":
-            (lambda p: stm_law(p, grid), unbatched_grid),
-        "stm_law, full Solution (grid broadcast per member)": (lambda p: stm_law(p, grid), 0),
+            lambda p: {k: v for k, v in _setup(p, grid).items() if k != "prob"},
+        "stm_law, cost only": lambda p: stm_law(p, grid).cost,
+        "stm_law, full Solution": lambda p: stm_law(p, grid),
     }
     out = {}
-    for label, (fn, out_axes) in stages.items():
-        f = jax.jit(jax.vmap(fn, out_axes=out_axes))
+    for label, fn in stages.items():
+        f = jax.jit(jax.vmap(fn))
         block(f(probs))
         t = timed(lambda: block(f(probs)), min_repeats=5, budget_s=1.5)
         out[label] = dict(batch_median_s=t["median_s"], per_problem_us=t["median_s"] / batch * 1e6)

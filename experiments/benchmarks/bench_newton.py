@@ -260,6 +260,16 @@ def compare(ours_cost, ours_u, ip, d):
 
 
 # ----------------------------------------------------------------------------------- profile
+def time_pieces(pieces):
+    """{label: median seconds} of each (fn, args) jitted alone."""
+    out = {}
+    for label, (fn, args) in pieces.items():
+        f = jax.jit(fn)
+        block(f(*args))
+        out[label] = timed(lambda: block(f(*args)), min_repeats=5, budget_s=1.5)["median_s"]
+    return out
+
+
 def profile(prob, grid, sol):
     """Time the pieces of one solve, each jitted alone on the converged problem's data."""
     ocp, _, _ = transfer_ocp(prob, grid)
@@ -284,12 +294,7 @@ def profile(prob, grid, sol):
             (lambda H, A: jax.scipy.linalg.lu_factor(
                 jnp.block([[H, A.T], [A, jnp.zeros((A.shape[0],) * 2)]])), (H, A)),
     }
-    out = {}
-    for label, (fn, args) in pieces.items():
-        f = jax.jit(fn)
-        block(f(*args))
-        t = timed(lambda: block(f(*args)), min_repeats=5, budget_s=1.5)
-        out[label] = t["median_s"]
+    out = time_pieces(pieces)
     it = int(sol.iterations)
     # every loop pass (iterations + the final pass that detects convergence) assembles H and A
     # and solves the KKT system once (more on a regularisation retry): sum the pieces
@@ -349,12 +354,7 @@ def profile_condensed(prob, grid, sol):
         "solve (183 x 183 Cholesky, multipliers)":
             (with_la(lambda la, pr, H, g, c: la.solve(pr, H, g, c, 0.0, 0.0)), (prep, H, g, c)),
     }
-    out = {}
-    for label, (fn, args) in pieces.items():
-        f = jax.jit(fn)
-        block(f(*args))
-        t = timed(lambda: block(f(*args)), min_repeats=5, budget_s=1.5)
-        out[label] = t["median_s"]
+    out = time_pieces(pieces)
     it = int(sol.iterations)
     per_pass = sum(v for k, v in out.items() if k.startswith(("kkt", "prepare", "hessian",
                                                               "solve")))

@@ -25,11 +25,16 @@ _ARRAY_FIELDS = ("points", "weights", "support", "D", "support_bary", "point_bar
 
 
 @functools.partial(
-    jax.tree_util.register_dataclass, data_fields=list(_ARRAY_FIELDS), meta_fields=["scheme", "n"]
+    jax.tree_util.register_dataclass, data_fields=[],
+    meta_fields=["scheme", "n", *_ARRAY_FIELDS]
 )
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class Grid:
     """Collocation grid with n collocation points and its operators (float64).
+
+    A grid is fixed by (scheme, n): its operators are read-only host (numpy) constants, so as a
+    pytree it has no leaves (jit specialises on it, vmap never copies it into each member of a
+    batched solution) and it hashes and compares by (scheme, n).
 
     points (n,), weights (n,): collocation points tau_i and quadrature weights.
     support (n_s,): nodes of the state polynomial: LGL the points (Mei 2010);
@@ -49,6 +54,12 @@ class Grid:
     support_bary: jax.Array
     point_bary: jax.Array
     integration: jax.Array
+
+    def __hash__(self):
+        return hash((self.scheme, self.n))
+
+    def __eq__(self, other):
+        return isinstance(other, Grid) and (self.scheme, self.n) == (other.scheme, other.n)
 
     def interpolate_state(self, values, tau):
         """State interpolant at scalar tau; values (n_s, ...) on `support`."""
@@ -96,9 +107,7 @@ def make_grid(scheme: str, n: int) -> Grid:
             f"{scheme} grid needs an integer number of collocation points >= {minimum}, got {n!r}"
         )
     require_x64()
-    ops = _host_operators(scheme, int(n))
-    arrays = {name: jnp.asarray(ops[name], dtype=jnp.float64) for name in _ARRAY_FIELDS}
-    return Grid(scheme=scheme, n=int(n), **arrays)
+    return Grid(scheme=scheme, n=int(n), **_host_operators(scheme, int(n)))
 
 
 def lgl(n_points: int) -> Grid:
