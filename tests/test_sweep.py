@@ -275,6 +275,23 @@ def test_two_processes_two_devices_each(tmp_path):
         np.testing.assert_array_equal(t["status"], np.where(x > 0.8, Status.MAX_ITERATIONS, 0))
 
 
+def test_kkt_law_sweep_on_two_devices_at_N64(tmp_path):
+    """Two CPU devices, the KKT law at N = 64 with the default vmap width: its vmapped QRs hung
+    in jaxlib 0.10's batched LAPACK kernels (both devices' ParallelBatchMap waiting on one
+    2-thread pool: this sweep with --batch-size 16 still hangs, killed after 60 s). On CPU the
+    family now solves one member at a time by default (`Family.cpu_batch_size`); the sweep must
+    finish, all converged (~5 s; the timeout only stops a hang)."""
+    out = tmp_path / "two"
+    cli = [sys.executable, "-m", "jaxlpm.cli", "sweep", "mei2010", "--method", "kkt",
+           "--e", "0:0.3:64", "--N", "64", "--chunk", "32", "--no-progress", "--out", str(out)]
+    proc = subprocess.run(cli, env=dict(os.environ, JAX_NUM_CPU_DEVICES="2"), timeout=300,
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    m = manifest(out)
+    assert m["runs"][0]["devices"] == 2
+    assert m["summary"]["64"]["converged"] == 64 and m["summary"]["64"]["not_converged"] == []
+
+
 @pytest.mark.parametrize("argv, match", [
     (["--e", "0:0.3", "--N", "8"], None),                     # 'a:b' without a count
     (["--e", "0.1", "--N", "8.5"], None),                     # N not an integer

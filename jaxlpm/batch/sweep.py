@@ -79,6 +79,11 @@ class Family:
                 directory
     min_N       smallest N the family accepts
     validate    optional host check of the parameter table (ValueError on bad input)
+    cpu_batch_size  the vmap width `sweep` uses on the CPU backend when the caller gives none
+                (None: all of a device's members of the chunk). 1 for solvers built on LAPACK
+                factorisations: on CPU a vmapped LAPACK call runs member by member anyway,
+                and jaxlib 0.10's batched kernels deadlock when two devices run them at once
+                (the KKT law's sweep on 2 CPU devices hung at N = 64; experiments/README.md)
     """
 
     name: str
@@ -88,6 +93,7 @@ class Family:
     definition: dict = field(default_factory=dict)
     min_N: int = 1
     validate: Callable | None = None
+    cpu_batch_size: int | None = None
 
 
 TRANSFER_PARAMETERS = ("e", "a", "i", "raan", "argp", "f0", "revolutions", "duration", "x0",
@@ -242,8 +248,10 @@ def sensitivity_family(family: Family, wrt=None, control_gain: bool = True) -> F
 
     definition = dict(family.definition, sensitivities=dict(
         wrt=None if wrt is None else list(wrt), control_gain=control_gain))
+    # the gradients' tangent solves (implicit differentiation) are LAPACK calls
     return Family(name=family.name, build=build, solve=record, grid=family.grid,
-                  definition=definition, min_N=family.min_N, validate=validate)
+                  definition=definition, min_N=family.min_N, validate=validate,
+                  cpu_batch_size=1)
 
 
 def transfer_family(name: str, base: EnergyOptimalTransfer, method: str = "kkt",
@@ -269,7 +277,8 @@ def transfer_family(name: str, base: EnergyOptimalTransfer, method: str = "kkt",
                + (", iterations" if method == "newton" else ""))
     return Family(name=name, build=transfer_builder(base, hold), solve=transfer_record(method),
                   grid=lambda N: lgl(N + 1), definition=definition, min_N=3,
-                  validate=_check_transfer_parameters(base, hold))
+                  validate=_check_transfer_parameters(base, hold),
+                  cpu_batch_size=None if method == "stm" else 1)
 
 
 def parameter_grid(**axes) -> dict:
@@ -556,9 +565,10 @@ def sweep(family: Family, params: dict, Ns, out=None, chunk_size: int = 256,
     Ns          grid sizes in the family's convention; grouped (one compiled function each)
     out         results directory (resumable, see the module docstring), or None: in memory
     chunk_size  members per chunk (part of the definition: fixes the files' layout)
-    batch_size  members a device solves at once by vmap inside its lax.map (default: all its
-                members of the chunk); smaller bounds memory, and for iterative solvers stops
-                one slow member from holding a wide batch in lockstep
+    batch_size  members a device solves at once by vmap inside its lax.map (default: on CPU the
+                family's cpu_batch_size, else all its members of the chunk); smaller bounds
+                memory, and for iterative solvers stops one slow member from holding a wide
+                batch in lockstep
     run_info    extra JSON-able facts about this invocation for the manifest's `runs`
     compiler_options  passed to XLA's compile (e.g. {"xla_backend_optimization_level": 0}
                 compiles large solvers faster and runs them slower)
@@ -574,6 +584,8 @@ def sweep(family: Family, params: dict, Ns, out=None, chunk_size: int = 256,
     process returns them all).
     """
     require_x64()
+    if batch_size is None and jax.default_backend() == "cpu":
+        batch_size = family.cpu_batch_size
     params, Ns, members = _check_sweep_inputs(family, params, Ns, chunk_size, batch_size)
     chunk_size = min(int(chunk_size), members)
     n_chunks = -(-members // chunk_size)
