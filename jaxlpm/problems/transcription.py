@@ -44,7 +44,7 @@ def collocated_rows(grid):
     return {"LGL": slice(None), "LG": slice(1, -1), "LGR": slice(None, -1)}[grid.scheme]
 
 
-def _support_rows(grid):
+def support_rows(grid):
     """Slice of the state rows on which the state polynomial (and D) is defined."""
     return {"LGL": slice(None), "LG": slice(None, -1), "LGR": slice(None)}[grid.scheme]
 
@@ -139,7 +139,7 @@ def defects(z, ocp: OptimalControlProblem, grid):
     X, U, sf = unpack(z, ocp, grid)
     h = 0.5 * (sf - ocp.s0)
     F = _pointwise(ocp.dynamics, ocp, grid, X, U, sf)
-    rows = grid.D @ X[_support_rows(grid)] - h * F
+    rows = grid.D @ X[support_rows(grid)] - h * F
     if grid.scheme == "LG":
         quad = X[-1] - X[0] - h * (grid.weights @ F)
         rows = jnp.concatenate([rows, quad[None]])
@@ -176,7 +176,7 @@ def _end_indices(ocp, grid):
     return jnp.concatenate([jnp.arange(ocp.n_x), last * ocp.n_x + jnp.arange(ocp.n_x)])
 
 
-def _pointwise_jacobian(ocp, grid, X, U, sf):
+def pointwise_jacobian(ocp, grid, X, U, sf):
     """dF/d(x, u) at every collocation point, (n, n_x, n_x + n_u)."""
     s = collocation_s(ocp, grid, sf)
     Xc = X[collocated_rows(grid)]
@@ -196,12 +196,12 @@ def equality_jacobian(z, ocp: OptimalControlProblem, grid):
     X, U, sf = unpack(z, ocp, grid)
     n_x, n = ocp.n_x, z.size
     h = 0.5 * (sf - ocp.s0)
-    J = -h * _pointwise_jacobian(ocp, grid, X, U, sf)               # (n_pts, n_x, n_x + n_u)
+    J = -h * pointwise_jacobian(ocp, grid, X, U, sf)               # (n_pts, n_x, n_x + n_u)
     idx = point_indices(ocp, grid)
     n_def = grid.n * n_x
     rows_i = jnp.arange(n_def).reshape(grid.n, n_x)
     A = jnp.zeros((n_def, n), z.dtype)
-    support = _support_rows(grid)
+    support = support_rows(grid)
     n_support = X[support].shape[0]
     A = A.at[:, :n_support * n_x].set(jnp.kron(grid.D, jnp.eye(n_x, dtype=z.dtype)))
     A = A.at[rows_i[:, :, None], idx[:, None, :]].add(J)

@@ -37,9 +37,9 @@ import jax
 import jax.numpy as jnp
 
 from ..linalg import cholesky_solve, complete_qr, small_triangular_solve
-from ..problems.transcription import (_pointwise_jacobian, collocated_rows, equality,
-                                      lagrangian, n_state_rows, objective, point_hessians,
-                                      point_indices, unpack)
+from ..problems.transcription import (collocated_rows, equality, lagrangian, n_state_rows,
+                                      objective, point_hessians, point_indices,
+                                      pointwise_jacobian, support_rows, unpack)
 
 
 class CondensedSecondOrder:
@@ -59,7 +59,7 @@ class CondensedSecondOrder:
     def _coefficients(self, z):
         """(h, q, b, dd/dx (n, 3, 6), dc/ds_f or None) at z."""
         X, U, sf = unpack(z, self.ocp, self.grid)
-        J = _pointwise_jacobian(self.ocp, self.grid, X, U, sf)      # (n, 6, 9)
+        J = pointwise_jacobian(self.ocp, self.grid, X, U, sf)      # (n, 6, 9)
         a_sf = None
         if self.free:
             e_sf = jnp.zeros(z.size, z.dtype).at[-1].set(1.0)
@@ -76,8 +76,7 @@ class CondensedSecondOrder:
         n, nr = g.n, self.n_rows
         c = r[:6 * n].reshape(n, 6)
         bc = r[r.size - 12:]
-        col, sup = collocated_rows(g), {"LGL": slice(None), "LG": slice(None, -1),
-                                        "LGR": slice(None)}[g.scheme]
+        col, sup = collocated_rows(g), support_rows(g)
         dV_c = (g.D @ dR[sup] + c[:, :3]) / (h * q[:, None])
         dV = jnp.zeros((nr, 3), dR.dtype).at[col].set(dV_c)
         if g.scheme == "LG":
