@@ -8,16 +8,19 @@ Each iteration solves the Newton system of the KKT conditions of min f(z) s.t. c
 
 H and A come from JAX autodiff, assembled from the collocation structure by
 `jaxlpm.problems.transcription` (per-point blocks: the dynamics and running cost couple only
-x_i and u_i, D X is linear). Regularisation (inertia correction as in IPOPT, Waechter &
-Biegler 2006 §3.1): dw = dc = 0 first; if the solve is not finite, the sign of det K shows
-the wrong inertia (see `_kkt_step`), or the step's null-space component p_N (p less its
-least-squares range-space part A^T (A A^T)^-1 A p) has negative curvature
-p_N^T (H + dw I) p_N < 0, retry with dw = max(1e-8 scale, dw_last / 4), then 100x per retry,
-and dc = 1e-12.
+x_i and u_i, D X is linear). How the system is solved is the `linear_algebra` class's job:
+`DenseKKT` (here: one LU of the whole matrix, any transcription) or
+`jaxlpm.solvers.condensed.CondensedSecondOrder` (the null-space system of the eliminated
+defects, fully actuated second-order problems). Regularisation (inertia correction as in
+IPOPT, Waechter & Biegler 2006 §3.1): dw = dc = 0 first; while the solve is not ok, retry with
+dw = max(1e-8 scale, dw_last / 4), then 100x per retry, and dc = 1e-12. `DenseKKT` calls a solve
+not ok if it is not finite, the sign of det K shows the wrong inertia (see `_kkt_step`), or
+the step's null-space component p_N (p less its least-squares range-space part
+A^T (A A^T)^-1 A p) has negative curvature p_N^T (H + dw I) p_N < 0.
 Globalisation: the l1 merit f + mu |c|_1 (mu >= 1.5 |lambda+|_inf) with Armijo backtracking,
 after trying the full step and its second-order correction (against the Maratos effect; the
-corrected step is also accepted when it halves the KKT residual). First multipliers by least
-squares. Iterations run in one `lax.while_loop` with a static maximum (convergence is also
+corrected step is also accepted when it halves the KKT residual). First multipliers from the
+linear algebra class (least squares for `DenseKKT`). Iterations run in one `lax.while_loop` with a static maximum (convergence is also
 tested after the last step); the result carries a `Status`, residuals, the residual history
 and the multipliers. Optionally, a failed solve is retried by continuation along a homotopy
 of the problem (`newton_kkt`'s homotopy argument). Solutions are differentiated by the

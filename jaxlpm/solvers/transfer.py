@@ -3,8 +3,8 @@
 The transfer is written as an `OptimalControlProblem` in the chief's anomaly
 (`jaxlpm.problems.relative`), warm-started from the linear model's KKT solution on the same
 grid (Mei 2010 §3.2's law on LGL; one Newton step of the same QP on LG and LGR), and solved by
-`newton_kkt`. Outputs are
-in SI (LVLH, m, m/s, m/s^2); gradients with respect to the problem's array leaves (e, a,
+`newton_kkt` (its KKT systems by the condensed null-space solve on the nonlinear models, see
+`newton_transfer`). Outputs are in SI (LVLH, m, m/s, m/s^2); gradients with respect to the problem's array leaves (e, a,
 duration, boundary states, J2) come from the implicit function theorem at the KKT point.
 """
 
