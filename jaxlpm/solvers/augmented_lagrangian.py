@@ -155,14 +155,13 @@ def _outer_loop(w0, ocp, grid, options: ALOptions, linear_algebra=DenseKKT):
         # multipliers and penalty (updates from a point still moving fast would mislead
         # both), unless that continuation left the path violation where it was; one whose
         # line search stalled is as solved as Newton can make it
-        v_now = _violation(G, H, B)
+        v = _violation(G, H, B)
         stuck = (st_in == Status.MAX_ITERATIONS) & (k > 0) & (
-            v_now >= 0.99 * hist[jnp.maximum(k - 1, 0)])
+            v >= 0.99 * hist[jnp.maximum(k - 1, 0)])
         solved = (st_in == Status.SUCCESS) | (st_in == Status.STALLED) | stuck
         mu = jnp.where(solved, jnp.maximum(pen.inequality + rho * G, 0.0), pen.inequality)
         nu = jnp.where(solved, pen.equality + rho * H, pen.equality)
         mu_b = jnp.where(solved, jnp.maximum(pen.bounds + rho * B, 0.0), pen.bounds)
-        v = v_now
         comp = _complementarity(G, mu, B, mu_b)
         progress = jnp.maximum(
             _violation(jnp.zeros_like(G), H, jnp.zeros_like(B)),

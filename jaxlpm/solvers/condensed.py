@@ -38,8 +38,9 @@ import jax.numpy as jnp
 
 from ..linalg import cholesky_solve, complete_qr, small_triangular_solve
 from ..problems.transcription import (collocated_rows, equality, lagrangian, n_state_rows,
-                                      objective, point_hessians, point_indices,
-                                      pointwise_jacobian, support_rows, unpack)
+                                      n_variables, objective, point_hessians,
+                                      point_indices, pointwise_jacobian, support_rows,
+                                      unpack)
 
 
 class CondensedSecondOrder:
@@ -51,8 +52,9 @@ class CondensedSecondOrder:
     def __init__(self, ocp, grid):
         self.ocp, self.grid = ocp, grid
         self.n_rows = n_state_rows(grid)
-        self.n_z = self.n_rows * 6 + grid.n * 3
         self.free = bool(ocp.free_final)
+        self.n_c = jax.eval_shape(lambda: equality(jnp.zeros(n_variables(ocp, grid)), ocp,
+                                                   grid)).shape[0]
         self.idx = point_indices(ocp, grid)              # (n, 9) positions of (x_i, u_i) in z
 
     # ------------------------------------------------------------------ the linear maps
@@ -141,9 +143,7 @@ class CondensedSecondOrder:
         return self._step(basis, jnp.zeros(basis[1][2].shape[1] + int(self.free), r.dtype), r)
 
     def _zero_r(self, dtype):
-        n_c = jax.eval_shape(lambda: equality(jnp.zeros(self.n_z + int(self.free)),
-                                              self.ocp, self.grid)).shape[0]
-        return jnp.zeros(n_c, dtype)
+        return jnp.zeros(self.n_c, dtype)
 
     def _basis(self, z):
         coef = self._coefficients(z)

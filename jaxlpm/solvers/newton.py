@@ -117,18 +117,6 @@ def _least_squares_multipliers(z, ocp, grid):
     return -jax.scipy.linalg.solve(A @ A.T, A @ g, assume_a="pos")
 
 
-def newton_step(ocp, grid, z, linear_algebra=None):
-    """One full Newton-KKT step from z with zero multipliers: the exact solution when the
-    problem is a QP (linear dynamics, quadratic cost), e.g. the linear transfer's KKT law.
-    linear_algebra: as in `newton_kkt` (default `DenseKKT`). Returns (z + p, multipliers)."""
-    la = (linear_algebra or DenseKKT)(ocp, grid)
-    lam = jnp.zeros(equality(z, ocp, grid).shape, z.dtype)
-    prep = la.prepare(z, lam)
-    p, lam_new, _ = la.solve(prep, la.hessian(prep, z, lam), jax.grad(objective)(z, ocp, grid),
-                             equality(z, ocp, grid), 0.0, 0.0)
-    return z + p, lam_new
-
-
 class DenseKKT:
     """Newton-KKT linear algebra for any transcription: the whole KKT matrix by one LU per
     solve (`_kkt_step`), the step's null-space component and the second-order correction
@@ -165,6 +153,18 @@ class DenseKKT:
 
     def first_multipliers(self, z):
         return _least_squares_multipliers(z, self.ocp, self.grid)
+
+
+def newton_step(ocp, grid, z, linear_algebra=DenseKKT):
+    """One full Newton-KKT step from z with zero multipliers: the exact solution when the
+    problem is a QP (linear dynamics, quadratic cost), e.g. the linear transfer's KKT law.
+    linear_algebra: as in `newton_kkt`. Returns (z + p, multipliers)."""
+    la = linear_algebra(ocp, grid)
+    lam = jnp.zeros(equality(z, ocp, grid).shape, z.dtype)
+    prep = la.prepare(z, lam)
+    p, lam_new, _ = la.solve(prep, la.hessian(prep, z, lam), jax.grad(objective)(z, ocp, grid),
+                             equality(z, ocp, grid), 0.0, 0.0)
+    return z + p, lam_new
 
 
 def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT):
