@@ -349,3 +349,45 @@ def test_continuation_rescues_a_failed_start(batch_two_body):
     scale = float(np.max(np.abs(ref.node_controls)))
     np.testing.assert_allclose(continued.node_controls, ref.node_controls, atol=1e-9 * scale)
     assert abs(float(continued.cost) / float(ref.cost) - 1.0) < 1e-10
+
+
+def test_stall_test_ends_a_stuck_solve_and_the_continuation_finishes_it():
+    """A dispersed transfer (member 1023 of mei2010_dispersion(PRNGKey(3), 1024): e 0.67, 4.8
+    revolutions, a 20 km start) whose direct Newton solve at N = 32 gets stuck: the line search
+    accepts only tiny steps along a huge, nearly singular Newton step. The stall test ends it
+    as STALLED once the KKT residual has not fallen below 0.9 of its best over
+    `stall_iterations` (8) iterations, long before the iteration limit (40); the separation
+    continuation (secant predictor from the linear warm start) then converges."""
+    from jaxlpm.batch.dispersion import mei2010_dispersion
+    prob = jax.tree_util.tree_map(lambda x: x[1023],
+                                  mei2010_dispersion(jax.random.PRNGKey(3), 1024, "two-body"))
+    grid = lpm.lgl(33)
+    opts = lpm.NewtonOptions(max_continuation=0)
+    direct = quick(lambda p: newton_transfer(p, grid, opts), prob)
+    k = int(direct.iterations)
+    hist = np.asarray(direct.history[:k + 1])
+    assert int(direct.status) == Status.STALLED and k < opts.max_iterations
+    w = opts.stall_iterations
+    assert k >= w and hist[k] > 0.9 * hist[k - w:k].min()
+    assert hist[k] > 1e-6            # stuck far from a solution, not slow near one
+    continued = quick(lambda p: newton_transfer(p, grid), prob)
+    assert int(continued.status) == Status.SUCCESS
+    assert float(continued.constraint_residual) <= 1e-10
+    assert float(continued.stationarity_residual) <= 1e-10
+
+
+@pytest.mark.parametrize("zero_rows", [slice(0, 6), slice(3, 6), slice(0, 0)])
+def test_point_reduced_hessian_skips_only_rows_that_vanish(zero_rows):
+    """The condensed solve's T^T H T over the rows in use equals the full contraction for
+    each zero pattern of the point blocks (states linear, velocities linear, none): the same
+    sums less exact zeros, so to round-off (1e-13 of the largest entry)."""
+    from jaxlpm.solvers.condensed import point_reduced_hessian
+    rng = np.random.default_rng(0)
+    blocks = rng.normal(size=(7, 9, 9))
+    blocks = blocks + blocks.transpose(0, 2, 1)
+    blocks[:, zero_rows, :] = 0.0
+    blocks[:, :, zero_rows] = 0.0
+    Tp = rng.normal(size=(7, 9, 5))
+    full = np.einsum("iak,iab,ibl->kl", Tp, blocks, Tp)
+    got = np.asarray(jax.jit(point_reduced_hessian)(jnp.asarray(Tp), jnp.asarray(blocks)))
+    np.testing.assert_allclose(got, full, atol=1e-13 * np.max(np.abs(full)))

@@ -58,7 +58,10 @@ class ALOptions:
     rho_growth: float = 10.0
     rho_max: float = 1e10
     decrease: float = 0.25
-    inner: NewtonOptions = field(default_factory=lambda: NewtonOptions(max_iterations=30))
+    # no stall test in the subproblems: the PHR terms' kinks (max(0, .)^2) can make Newton
+    # converge only linearly for a while, and a STALLED subproblem counts as solved
+    inner: NewtonOptions = field(default_factory=lambda: NewtonOptions(max_iterations=30,
+                                                                       stall_iterations=0))
 
 
 @jax.tree_util.register_dataclass
@@ -224,7 +227,7 @@ def augmented_lagrangian(ocp, grid, z0, multipliers0=None,
             raise ValueError(f"final_bounds must satisfy sf_min < sf_max, got [{lo}, {hi}]")
     if multipliers0 is None:          # a starting point: not differentiated
         fixed = jax.lax.stop_gradient((ocp, z0))
-        multipliers0 = linear_algebra(fixed[0], grid).first_multipliers(fixed[1])
+        multipliers0 = linear_algebra(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
     lam0 = multipliers0
     zeros = jnp.zeros(sg[0] * sg[1] + sh[0] * sh[1] + sb[0], z0.dtype)
     w, (status, st_in, k, inner_total, hist, rho) = _solver(options, linear_algebra)(

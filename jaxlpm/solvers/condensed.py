@@ -35,6 +35,7 @@ iterates differ while converging to the same KKT point.
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ..linalg import cholesky_solve, complete_qr, small_triangular_solve
 from ..problems.transcription import (collocated_rows, equality, lagrangian, n_state_rows,
@@ -43,19 +44,48 @@ from ..problems.transcription import (collocated_rows, equality, lagrangian, n_s
                                       unpack)
 
 
+_CONTROLS, _NO_VELOCITY, _ALL = slice(6, 9), np.array([0, 1, 2, 6, 7, 8]), slice(0, 9)  # rows
+
+
+def point_reduced_hessian(Tp, blocks):
+    """sum_i Tp_i^T H_i Tp_i for point blocks H_i (n, 9, 9) over (r, v, u) and the matching
+    rows Tp_i (n, 9, k) of T, over only the rows of the blocks that are not zero at every
+    point: the control rows alone where the state rows vanish (dynamics and path terms linear
+    in x, as for HCW), positions and controls where the velocity rows vanish (velocity-linear
+    dynamics: gravity and the LVLH frame's Coriolis term), else all nine."""
+    def over(rows):
+        Tr = Tp[:, rows]
+        return jnp.einsum("iak,ial->kl", Tr,
+                          jnp.einsum("iab,ibl->ial", blocks[:, rows][:, :, rows], Tr))
+
+    used = jnp.any(blocks != 0, axis=(0, 2))                        # (9,) rows in use
+    pattern = jnp.where(~jnp.any(used[:6]), 0, jnp.where(~jnp.any(used[3:6]), 1, 2))
+    return jax.lax.switch(pattern, [lambda: over(_CONTROLS), lambda: over(_NO_VELOCITY),
+                                    lambda: over(_ALL)])
+
+
 class CondensedSecondOrder:
     """`newton_kkt`'s linear algebra (the interface of `DenseKKT`) for the problems above, on
     LGL, LG or LGR grids. The caller guarantees the structure (q, b and dd/dx are read off the
     dynamics' Jacobian at each point) and boundary rows x0 - x0*, xf - xf* with no terminal
-    cost on the states."""
+    cost on the states.
 
-    def __init__(self, ocp, grid):
+    With a fixed final s on LGL and LGR grids, the null space and the directions' states
+    depend on h, q and b alone (functions of s), not on z: they are formed once, at z_ref (a
+    point where the dynamics are defined; default z = 0), and each Newton iteration only adds
+    the dd/dx terms to the controls' rows of T."""
+
+    def __init__(self, ocp, grid, z_ref=None):
         self.ocp, self.grid = ocp, grid
         self.n_rows = n_state_rows(grid)
         self.free = bool(ocp.free_final)
-        self.n_c = jax.eval_shape(lambda: equality(jnp.zeros(n_variables(ocp, grid)), ocp,
-                                                   grid)).shape[0]
+        n_var = n_variables(ocp, grid)
+        self.n_c = jax.eval_shape(lambda: equality(jnp.zeros(n_var), ocp, grid)).shape[0]
         self.idx = point_indices(ocp, grid)              # (n, 9) positions of (x_i, u_i) in z
+        self._fixed = None
+        if not self.free and grid.scheme != "LG":
+            z_ref = jnp.zeros(n_var) if z_ref is None else z_ref
+            self._fixed = self._z_independent(self._coefficients(z_ref), z_ref.dtype)
 
     # ------------------------------------------------------------------ the linear maps
     def _coefficients(self, z):
@@ -68,24 +98,34 @@ class CondensedSecondOrder:
             a_sf = jax.jvp(lambda v: equality(v, self.ocp, self.grid), (z,), (e_sf,))[1]
         return 0.5 * (sf - self.ocp.s0), J[:, 0, 3], J[:, 3, 6], J[:, 3:, :6], a_sf
 
-    def _complete(self, dR, r, coef):
-        """(dX (rows, 6), dU (n, 3), unmet conditions (k, 3)) for position displacements dR
-        (rows, 3) with the ends already at the boundary values: dV and dU from the collocated
-        defects (linearised, right-hand side -r), dV at non-collocated rows from the boundary
-        rows, and the linearised constraints not yet imposed."""
+    def _states(self, dR, r, coef):
+        """dX (rows, 6) for position displacements dR (rows, 3): dV from the collocated
+        position defects (linearised, right-hand side -r), at non-collocated rows from the
+        boundary rows."""
         g = self.grid
-        h, q, b, Gd, _ = coef
-        n, nr = g.n, self.n_rows
-        c = r[:6 * n].reshape(n, 6)
+        h, q = coef[:2]
+        c_r = r[:6 * g.n].reshape(g.n, 6)[:, :3]
         bc = r[r.size - 12:]
-        col, sup = collocated_rows(g), support_rows(g)
-        dV_c = (g.D @ dR[sup] + c[:, :3]) / (h * q[:, None])
-        dV = jnp.zeros((nr, 3), dR.dtype).at[col].set(dV_c)
+        dV_c = (g.D @ dR[support_rows(g)] + c_r) / (h * q[:, None])
+        dV = jnp.zeros((self.n_rows, 3), dR.dtype).at[collocated_rows(g)].set(dV_c)
         if g.scheme == "LG":
             dV = dV.at[0].set(-bc[3:6]).at[-1].set(-bc[9:12])
         elif g.scheme == "LGR":
             dV = dV.at[-1].set(-bc[9:12])
-        dX = jnp.concatenate([dR, dV], axis=1)
+        return jnp.concatenate([dR, dV], axis=1)
+
+    def _complete(self, dR, r, coef):
+        """(dX (rows, 6), dU (n, 3), unmet conditions (k, 3)) for position displacements dR
+        (rows, 3) with the ends already at the boundary values: `_states`, dU from the
+        collocated velocity defects, and the linearised constraints not yet imposed."""
+        g = self.grid
+        h, q, b, Gd, _ = coef
+        n = g.n
+        c = r[:6 * n].reshape(n, 6)
+        bc = r[r.size - 12:]
+        col, sup = collocated_rows(g), support_rows(g)
+        dX = self._states(dR, r, coef)
+        dV = dX[:, 3:]
         dd = jnp.einsum("iab,ib->ia", Gd, dX[col])
         dU = (g.D @ dV[sup] - h * dd + c[:, 3:]) / (h * b[:, None])
         if g.scheme == "LGL":
@@ -94,7 +134,7 @@ class CondensedSecondOrder:
             unmet = (dV[0] + bc[3:6])[None]
         else:                                   # the quadrature row, linearised
             quad = r[6 * n:6 * n + 6]
-            flow = h * (g.weights @ jnp.concatenate([q[:, None] * dV_c,
+            flow = h * (g.weights @ jnp.concatenate([q[:, None] * dV[col],
                                                      dd + b[:, None] * dU], axis=1))
             unmet = (dX[-1] - dX[0] - flow + quad).reshape(2, 3)
         return dX, dU, unmet
@@ -123,7 +163,7 @@ class CondensedSecondOrder:
         """The z-shaped step (ds_f last if free) with A p = -r whose interior positions have
         null-space coordinates y = w[:ny] (and ds_f = w[-1] if free): the affine map T w +
         p_0(r)."""
-        coef, (Q1, R1, Z) = basis
+        coef, (Q1, R1, Z), _ = basis
         dtype = r.dtype
         dsf = w[-1] if self.free else 0.0
         if self.free:
@@ -145,9 +185,29 @@ class CondensedSecondOrder:
     def _zero_r(self, dtype):
         return jnp.zeros(self.n_c, dtype)
 
+    def _directions(self, coef, Z, dtype):
+        """The null-space directions' dX (rows, 6, n_y) and D dV / (h b) (n, 3, n_y): the parts
+        of T that do not involve dd/dx (dU = D dV / (h b) - (dd/dx) dX / b)."""
+        g = self.grid
+        h, _, b = coef[:3]
+        zero_r = self._zero_r(dtype)
+        m = self.n_rows - 2
+
+        def direction(dR_int):
+            dR = jnp.zeros((self.n_rows, 3), dtype).at[1:-1].set(dR_int.reshape(m, 3))
+            dX = self._states(dR, zero_r, coef)
+            return dX, g.D @ dX[support_rows(g), 3:] / (h * b[:, None])
+
+        return jax.vmap(direction, out_axes=-1)(Z.T)
+
+    def _z_independent(self, coef, dtype):
+        null = self._null_space(coef, dtype)
+        return null, self._directions(coef, null[2], dtype)
+
     def _basis(self, z):
+        """(coefficients, null space (Q1, R1, Z), directions) at z."""
         coef = self._coefficients(z)
-        return coef, self._null_space(coef, z.dtype)
+        return (coef,) + (self._fixed or self._z_independent(coef, z.dtype))
 
     # ------------------------------------------------------------------ the interface
     def prepare(self, z, lam):
@@ -156,32 +216,25 @@ class CondensedSecondOrder:
 
     def _null_space_map(self, basis, dtype):
         """T = d p / d w (n_var, n_w): the steps of the null-space directions (and ds_f)."""
-        coef, (_, _, Z) = basis
-        zero_r = self._zero_r(dtype)
-        m = self.n_rows - 2
-
-        def column(dR_int):
-            dR = jnp.zeros((self.n_rows, 3), dtype).at[1:-1].set(dR_int.reshape(m, 3))
-            dX, dU, _ = self._complete(dR, zero_r, coef)
-            return jnp.concatenate([dX.ravel(), dU.ravel()] + [jnp.zeros(1, dtype)] * self.free)
-
-        T = jax.vmap(column, out_axes=1)(Z.T)
+        coef, _, (dX, dU_D) = basis
+        b, Gd = coef[2], coef[3]
+        k = dX.shape[-1]
+        dd = jnp.einsum("iab,ibk->iak", Gd, dX[collocated_rows(self.grid)])
+        dU = dU_D - dd / b[:, None, None]
+        T = jnp.concatenate([dX.reshape(-1, k), dU.reshape(-1, k)]
+                            + [jnp.zeros((1, k), dtype)] * self.free)
         if self.free:                        # the ds_f column
-            e_sf = jnp.zeros(Z.shape[1] + 1, dtype).at[-1].set(1.0)
-            T = jnp.concatenate([T, self._step(basis, e_sf, zero_r)[:, None]], axis=1)
+            e_sf = jnp.zeros(k + 1, dtype).at[-1].set(1.0)
+            T = jnp.concatenate([T, self._step(basis, e_sf, self._zero_r(dtype))[:, None]],
+                                axis=1)
         return T
 
     def hessian(self, prep, z, lam):
         """(point blocks (n, 9, 9), s_f column of the Lagrangian Hessian or None, the reduced
-        Hessian T^T H T, T). Where the state rows of every block vanish (dynamics and path
-        terms linear in x, as for HCW), only the control rows enter T^T H T."""
+        Hessian T^T H T (`point_reduced_hessian`), T)."""
         T = self._null_space_map(prep, z.dtype)
         blocks = point_hessians(z, lam, self.ocp, self.grid)
-        Tp = T[self.idx]                                            # (n, 9, n_w)
-        M = jax.lax.cond(
-            jnp.any(blocks[:, :6, :] != 0),
-            lambda: jnp.einsum("iak,iab,ibl->kl", Tp, blocks, Tp),
-            lambda: jnp.einsum("iak,iab,ibl->kl", Tp[:, 6:], blocks[:, 6:, 6:], Tp[:, 6:]))
+        M = point_reduced_hessian(T[self.idx], blocks)
         col = None
         if self.free:
             e_sf = jnp.zeros(z.size, z.dtype).at[-1].set(1.0)

@@ -145,7 +145,8 @@ class FiniteBurnOptions:
     search_iterations: int = 12
     search_tol: float = 1e-3
     al: ALOptions = field(default_factory=lambda: ALOptions(
-        tol_path=1e-7, inner=NewtonOptions(max_iterations=30, tol_optimality=1e-6)))
+        tol_path=1e-7, inner=NewtonOptions(max_iterations=30, tol_optimality=1e-6,
+                                           stall_iterations=0)))
 
 
 @jax.tree_util.register_dataclass

@@ -18,12 +18,15 @@ not ok if it is not finite, the sign of det K shows the wrong inertia (see `_kkt
 the step's null-space component p_N (p less its least-squares range-space part
 A^T (A A^T)^-1 A p) has negative curvature p_N^T (H + dw I) p_N < 0.
 Globalisation: the l1 merit f + mu |c|_1 (mu >= 1.5 |lambda+|_inf) with Armijo backtracking,
-after trying the full step and its second-order correction (against the Maratos effect; the
-corrected step is also accepted when it halves the KKT residual). First multipliers from the
-linear algebra class (least squares for `DenseKKT`). Iterations run in one `lax.while_loop` with a static maximum (convergence is also
-tested after the last step); the result carries a `Status`, residuals, the residual history
-and the multipliers. Optionally, a failed solve is retried by continuation along a homotopy
-of the problem (`newton_kkt`'s homotopy argument). Solutions are differentiated by the
+after trying the full step and, if the merit rejects it, its second-order correction (against
+the Maratos effect; the corrected step is also accepted when it halves the KKT residual).
+First multipliers from the linear algebra class (least squares for `DenseKKT`). Iterations
+run in one `lax.while_loop` with a static maximum (convergence is also tested after the last
+step); a solve whose KKT residual has not fallen below 0.9 of its best over the last
+`stall_iterations` iterations ends STALLED (stuck: tiny steps along a nearly singular Newton
+step). The result carries a `Status`, residuals, the residual history and the multipliers.
+Optionally, a failed solve is retried by continuation along a homotopy of the problem
+(`newton_kkt`'s homotopy argument). Solutions are differentiated by the
 implicit function theorem on the KKT conditions (`jaxlpm.implicit.root`), never through the
 iterations.
 """
@@ -49,6 +52,8 @@ class NewtonOptions:
 
     tol_feasibility   max |c| at convergence (problem units: the builders make states O(1))
     tol_optimality    max |grad f + A^T lambda| at convergence
+    stall_iterations  a solve ends STALLED when max(|c|, |grad L|) has not fallen below 0.9
+                      of its smallest value over this many iterations (0: no stall test)
     max_continuation, continuation_start   the continuation that `newton_kkt` runs when it is
                       given a homotopy and the direct solve fails
     """
@@ -59,6 +64,7 @@ class NewtonOptions:
     max_backtracks: int = 30
     max_regularisations: int = 6
     armijo: float = 1e-4
+    stall_iterations: int = 8
     max_continuation: int = 64       # Newton solves of the continuation after a failed start
     continuation_start: float = 1.0 / 64.0   # its first t (see `newton_kkt`'s homotopy)
 
@@ -122,7 +128,7 @@ class DenseKKT:
     solve (`_kkt_step`), the step's null-space component and the second-order correction
     through the Cholesky factor of A A^T, first multipliers by least squares."""
 
-    def __init__(self, ocp, grid):
+    def __init__(self, ocp, grid, z_ref=None):       # z_ref: unused (see the condensed class)
         self.ocp, self.grid = ocp, grid
 
     def prepare(self, z, lam):
@@ -159,7 +165,7 @@ def newton_step(ocp, grid, z, linear_algebra=DenseKKT):
     """One full Newton-KKT step from z with zero multipliers: the exact solution when the
     problem is a QP (linear dynamics, quadratic cost), e.g. the linear transfer's KKT law.
     linear_algebra: as in `newton_kkt`. Returns (z + p, multipliers)."""
-    la = linear_algebra(ocp, grid)
+    la = linear_algebra(ocp, grid, z)
     lam = jnp.zeros(equality(z, ocp, grid).shape, z.dtype)
     prep = la.prepare(z, lam)
     p, lam_new, _ = la.solve(prep, la.hessian(prep, z, lam), jax.grad(objective)(z, ocp, grid),
@@ -173,7 +179,7 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT)
     f = functools.partial(objective, ocp=ocp, grid=grid)
     c_fun = functools.partial(equality, ocp=ocp, grid=grid)
     opts = options
-    la = linear_algebra(ocp, grid)
+    la = linear_algebra(ocp, grid, z0)
 
     def merit(z, mu):
         return f(z) + mu * jnp.sum(jnp.abs(c_fun(z)))
@@ -207,6 +213,58 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT)
                          jnp.array(False), 0))
         return p, lam_new, dw, ok
 
+    def line_search(z, lam, g, c, kkt, prep, p, mu):
+        """(step, alpha, accepted): the full step if the merit accepts it, else its
+        second-order correction (Nocedal & Wright Alg. 18.3 / §15.5: p_soc = p + d with
+        A d = -c(z + p) removes the constraints' curvature that makes the merit reject good
+        Newton steps near a solution, the Maratos effect), also taken when it halves the KKT
+        residual, else Armijo backtracking along p."""
+        phi0 = merit(z, mu)
+        slope = g @ p - mu * jnp.sum(jnp.abs(c))
+
+        def sufficient(phi, alpha):
+            return phi <= phi0 + opts.armijo * alpha * slope
+
+        phi_full = merit(z + p, mu)
+        full = sufficient(phi_full, 1.0)
+
+        def corrected(_):
+            p_soc = p + la.correction(prep, c_fun(z + p))
+            kkt_soc = jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + p_soc, lam]), ocp,
+                                                   grid)))
+            return p_soc, sufficient(merit(z + p_soc, mu), 1.0) | (kkt_soc <= 0.5 * kkt)
+
+        p_soc, use_soc = jax.lax.cond(full, lambda _: (p, jnp.array(False)), corrected, None)
+
+        def ls_cond(t):
+            alpha, phi, j = t
+            return ~sufficient(phi, alpha) & ~use_soc & (j < opts.max_backtracks)
+
+        def ls_body(t):
+            alpha, _, j = t
+            alpha = 0.5 * alpha
+            return alpha, merit(z + alpha * p, mu), j + 1
+
+        alpha, phi, _ = jax.lax.while_loop(ls_cond, ls_body, (1.0, phi_full, 0))
+        accepted = use_soc | sufficient(phi, alpha)
+        return jnp.where(use_soc, p_soc, alpha * p), jnp.where(use_soc, 1.0, alpha), accepted
+
+    def newton_iteration(z, lam, mu, g, c, kkt, dw_last):
+        """One regularised Newton-KKT step with its line search: (z, lambda, mu, dw, status)."""
+        prep = la.prepare(z, lam)
+        p, lam_new, dw, ok = regularised_step(prep, la.hessian(prep, z, lam), g, c, dw_last)
+        mu = jnp.maximum(mu, 1.5 * jnp.max(jnp.abs(lam_new)) + 1e-12)
+        step, alpha, accepted = jax.lax.cond(
+            ok, lambda _: line_search(z, lam_new, g, c, kkt, prep, p, mu),
+            lambda _: (jnp.zeros_like(z), jnp.zeros((), z.dtype), jnp.array(False)), None)
+        moved = ok & accepted
+        z_next = jnp.where(moved, z + step, z)
+        lam_next = jnp.where(moved, lam + alpha * (lam_new - lam), lam)
+        finite = jnp.all(jnp.isfinite(z_next)) & jnp.all(jnp.isfinite(lam_next))
+        status = jnp.select([~finite, ~ok, ~accepted],
+                            [Status.NONFINITE, Status.SINGULAR, Status.STALLED], _RUNNING)
+        return z_next, lam_next, mu, dw, status.astype(jnp.int32)
+
     def body(s):
         z, lam, mu, k, hist, reg, dw_last, status = s
         g, c, feas, opt = residuals(z, lam)
@@ -216,57 +274,22 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT)
         # the iteration after the last step only checks convergence (a last step that lands
         # on the solution is SUCCESS, not MAX_ITERATIONS)
         out_of_budget = k >= opts.max_iterations
-        prep = la.prepare(z, lam)
-
-        def step(_):
-            return regularised_step(prep, la.hessian(prep, z, lam), g, c, dw_last)
-
-        def skip(_):          # converged: no factorisation (unbatched; vmap runs both)
-            return jnp.zeros_like(z), lam, jnp.zeros((), z.dtype), jnp.array(True)
-
-        p, lam_new, dw, ok = jax.lax.cond(converged | out_of_budget, skip, step, None)
-        mu = jnp.maximum(mu, 1.5 * jnp.max(jnp.abs(lam_new)) + 1e-12)
-        phi0 = merit(z, mu)
-        slope = g @ p - mu * jnp.sum(jnp.abs(c))
-
-        def trial(alpha):
-            return merit(z + alpha * p, mu)
-
-        def sufficient(phi, alpha):
-            return phi <= phi0 + opts.armijo * alpha * slope
-
-        # second-order correction of the full step (Nocedal & Wright Alg. 18.3 / §15.5):
-        # p_soc = p + d with A d = -c(z + p) removes the constraints' curvature that makes the
-        # merit reject good Newton steps near a solution (the Maratos effect)
-        p_soc = p + la.correction(prep, c_fun(z + p))
-        phi_full, phi_soc = trial(1.0), merit(z + p_soc, mu)
-        # a full step (plain or corrected) is also accepted if it halves the KKT residual
-        kkt_soc = jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + p_soc, lam_new]), ocp, grid)))
-        use_soc = ~sufficient(phi_full, 1.0) & (sufficient(phi_soc, 1.0) | (kkt_soc <= 0.5 * kkt))
-
-        def ls_cond(t):
-            alpha, phi, j = t
-            return ~sufficient(phi, alpha) & ~use_soc & (j < opts.max_backtracks)
-
-        def ls_body(t):
-            alpha, _, j = t
-            alpha = 0.5 * alpha
-            return alpha, trial(alpha), j + 1
-
-        alpha, phi, j = jax.lax.while_loop(ls_cond, ls_body, (1.0, phi_full, 0))
-        accepted = use_soc | sufficient(phi, alpha)
-        step_taken = jnp.where(use_soc, p_soc, alpha * p)
-        alpha = jnp.where(use_soc, 1.0, alpha)
-        moved = ok & accepted & ~converged & ~out_of_budget
-        z_next = jnp.where(moved, z + step_taken, z)
-        lam_next = jnp.where(moved, lam + alpha * (lam_new - lam), lam)
-        finite = jnp.all(jnp.isfinite(z_next)) & jnp.all(jnp.isfinite(lam_next))
-        status = jnp.select(
-            [converged, out_of_budget, ~finite, ~ok, ~accepted],
-            [Status.SUCCESS, Status.MAX_ITERATIONS, Status.NONFINITE, Status.SINGULAR,
-             Status.STALLED], _RUNNING).astype(jnp.int32)
-        k_next = jnp.where(converged | out_of_budget, k, k + 1)
-        return z_next, lam_next, mu, k_next, hist, jnp.maximum(reg, dw), dw, status
+        # no progress: the residual is not below 0.9 of the best of the last stall_iterations
+        stalled = jnp.array(False)
+        if opts.stall_iterations > 0:
+            w = opts.stall_iterations
+            recent = jax.lax.dynamic_slice(
+                jnp.concatenate([jnp.full(w, jnp.inf, hist.dtype), hist]), (k,), (w,))
+            stalled = (k >= w) & (kkt > 0.9 * jnp.min(recent))
+        done = converged | out_of_budget | stalled
+        # a finished pass factors nothing (unbatched; vmap runs both branches)
+        final = jnp.select([converged, out_of_budget], [Status.SUCCESS, Status.MAX_ITERATIONS],
+                           Status.STALLED).astype(jnp.int32)
+        z, lam, mu, dw, status = jax.lax.cond(
+            done, lambda _: (z, lam, mu, jnp.zeros((), z.dtype), final),
+            lambda _: newton_iteration(z, lam, mu, g, c, kkt, dw_last), None)
+        k_next = jnp.where(done, k, k + 1)
+        return z, lam, mu, k_next, hist, jnp.maximum(reg, dw), dw, status
 
     hist0 = jnp.zeros(opts.max_iterations + 1, z0.dtype)
     zero = jnp.zeros((), z0.dtype)
@@ -279,16 +302,18 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT)
 def _continuation_loop(loop, w0, ocp, grid, options: NewtonOptions, homotopy):
     """Solve the problem from w0 by `loop(w, ocp, grid, options) -> (w, (status, iterations,
     history, regularisation))` (`_newton_loop` or the reduced-space loop); if that fails, follow homotopy(ocp, t) from t =
-    continuation_start (where w0 is nearly exact) to t = 1 (the problem): each solve starts
-    from the last converged one, t doubles after a success and bisects back towards the last
-    converged t after a failure (Allgower & Georg 1990, ch. 1: embedding with step control).
+    continuation_start (where w0 is nearly exact) to t = 1 (the problem): t doubles after a
+    success and bisects back towards the last converged t after a failure, and each solve
+    starts from the secant predictor through the last two converged solutions (w0 standing
+    for t = 0) (Allgower & Georg 1990, ch. 1-2: embedding with step control, predictor-
+    corrector).
     One Newton loop in the compiled program, whatever the path. Returns the converged t = 1
     solution, or the direct attempt's result and status if the continuation does not get
     there within max_continuation solves; iterations are counted over all solves."""
     one = jnp.ones((), w0.dtype)
 
     def body(s):
-        w_start, t_try, t_good, w_good, attempts, total, w_out, aux_out, _ = s
+        w_start, t_try, t_good, w_good, t_prev, w_prev, attempts, total, w_out, aux_out, _ = s
         w, (status, k, hist, reg) = loop(w_start, homotopy(ocp, t_try), grid, options)
         ok = status == Status.SUCCESS
         first = attempts == 0
@@ -297,17 +322,24 @@ def _continuation_loop(loop, w0, ocp, grid, options: NewtonOptions, homotopy):
         w_out = jnp.where(keep, w, w_out)
         aux_out = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b),
                                          (status, hist, reg), aux_out)
-        t_good_next = jnp.where(ok, t_try, jnp.where(first, 0.0, t_good))
-        w_good_next = jnp.where(ok, w, jnp.where(first, w0, w_good))
+        advance = ok & ~first
+        t_prev = jnp.where(advance, t_good, jnp.where(first, 0.0, t_prev))
+        w_prev = jnp.where(advance, w_good, jnp.where(first, w0, w_prev))
+        t_good = jnp.where(advance, t_try, jnp.where(first, 0.0, t_good))
+        w_good = jnp.where(advance, w, jnp.where(first, w0, w_good))
         t_next = jnp.where(first, options.continuation_start,
                            jnp.where(ok, jnp.minimum(2.0 * t_try, 1.0), 0.5 * (t_good + t_try)))
+        # secant predictor through the last two converged solutions (w0 is the t -> 0 one)
+        slope = (w_good - w_prev) / jnp.where(t_good > t_prev, t_good - t_prev, 1.0)
+        w_next = w_good + jnp.where(t_good > t_prev, t_next - t_good, 0.0) * slope
         done = reached | (attempts >= options.max_continuation) | (first & ok)
-        return (w_good_next, t_next, t_good_next, w_good_next, attempts + 1, total + k, w_out,
+        return (w_next, t_next, t_good, w_good, t_prev, w_prev, attempts + 1, total + k, w_out,
                 aux_out, done)
 
     aux0 = (jnp.asarray(_RUNNING, jnp.int32), jnp.zeros(options.max_iterations + 1, w0.dtype),
             jnp.zeros((), w0.dtype))
-    state = (w0, one, 0.0 * one, w0, 0, 0, w0, aux0, jnp.array(False))
+    zero = 0.0 * one
+    state = (w0, one, zero, w0, zero, w0, 0, 0, w0, aux0, jnp.array(False))
     *_, total, w, (status, hist, reg), _ = jax.lax.while_loop(lambda s: ~s[-1], body, state)
     return w, (status, total, hist, reg)
 
@@ -356,7 +388,7 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
         check_finite("z0", z0)
     if multipliers0 is None:          # a starting point: not differentiated
         fixed = jax.lax.stop_gradient((ocp, z0))
-        multipliers0 = linear_algebra(fixed[0], grid).first_multipliers(fixed[1])
+        multipliers0 = linear_algebra(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
     w, (status, k, hist, reg) = _solver(options, homotopy, linear_algebra)(
         jnp.concatenate([z0, multipliers0]), ocp, grid)
     z, lam = w[:n], w[n:]
