@@ -461,7 +461,7 @@ def main():
     for (name, r), err, enl in ((rows[0], errs[0], nl[0]), (rows[1], errs[1], nl[2]),
                                 (rows[2], errs[2], nl[3])):
         print(f"{name:<34.34} {r.J:11.4e} {np.sum(r.u**2):11.4e} {err[0]:11.4e} {enl[0]:13.4e}")
-    print(f"published STM: J = 1.9e-6, linear miss 'hundreds of m', nonlinear 'hundreds of m'")
+    print("published STM: J = 1.9e-6, linear miss 'hundreds of m', nonlinear 'hundreds of m'")
     print(f"\ndone in {time.time() - T_START:.0f} s")
 
 

@@ -58,7 +58,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from jaxlpm.batch import dispersion_parameters, mei2010_dispersion  # noqa: E402
-from jaxlpm.batch.sweep import save_npz_atomic, write_json_atomic  # noqa: E402
+from jaxlpm.batch.sweep import map_in_groups, save_npz_atomic, write_json_atomic  # noqa: E402
 from jaxlpm.collocation import lgl  # noqa: E402
 from jaxlpm.solvers import NewtonOptions, newton_transfer  # noqa: E402
 from jaxlpm.status import Status  # noqa: E402
@@ -131,7 +131,7 @@ def make_chunk_solver(grid, vmap_width, chunk, options=NewtonOptions()):
     one = lambda p: solve_record(p, grid, options)                       # noqa: E731
     if vmap_width >= chunk:
         return jax.jit(jax.vmap(one))
-    return jax.jit(lambda ps: jax.lax.map(one, ps, batch_size=vmap_width))
+    return jax.jit(lambda ps: map_in_groups(one, ps, vmap_width))
 
 
 def lockstep_iterations(chunk_file, args):

@@ -378,9 +378,10 @@ def test_stall_test_ends_a_stuck_solve_and_the_continuation_finishes_it():
 
 @pytest.mark.parametrize("zero_rows", [slice(0, 6), slice(3, 6), slice(0, 0)])
 def test_point_reduced_hessian_skips_only_rows_that_vanish(zero_rows):
-    """The condensed solve's T^T H T over the rows in use equals the full contraction for
-    each zero pattern of the point blocks (states linear, velocities linear, none): the same
-    sums less exact zeros, so to round-off (1e-13 of the largest entry)."""
+    """The condensed solve's T^T H T, which skips the velocity rows where they vanish,
+    equals the full contraction for each zero pattern of the point blocks (states linear,
+    velocities linear, none), alone and vmapped: the same sums less exact zeros, so to
+    round-off (1e-13 of the largest entry)."""
     from jaxlpm.solvers.condensed import point_reduced_hessian
     rng = np.random.default_rng(0)
     blocks = rng.normal(size=(7, 9, 9))
@@ -391,3 +392,11 @@ def test_point_reduced_hessian_skips_only_rows_that_vanish(zero_rows):
     full = np.einsum("iak,iab,ibl->kl", Tp, blocks, Tp)
     got = np.asarray(jax.jit(point_reduced_hessian)(jnp.asarray(Tp), jnp.asarray(blocks)))
     np.testing.assert_allclose(got, full, atol=1e-13 * np.max(np.abs(full)))
+    # batched with a member that uses every row
+    both = np.stack([blocks, rng.normal(size=(7, 9, 9))])
+    both[1] = both[1] + both[1].transpose(0, 2, 1)
+    got = np.asarray(jax.jit(jax.vmap(point_reduced_hessian, in_axes=(None, 0)))(
+        jnp.asarray(Tp), jnp.asarray(both)))
+    for member, g in zip(both, got):
+        ref = np.einsum("iak,iab,ibl->kl", Tp, member, Tp)
+        np.testing.assert_allclose(g, ref, atol=1e-13 * np.max(np.abs(ref)))

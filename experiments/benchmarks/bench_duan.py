@@ -36,7 +36,6 @@ import jaxlpm  # noqa: F401  (sets the CPU runtime before numpy/casadi load)
 
 import casadi as ca  # noqa: E402
 import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)

@@ -82,6 +82,7 @@ from jaxlpm.problems import EnergyOptimalTransfer  # noqa: E402
 from jaxlpm.problems.relative import control_scale, cost_scale, transfer_ocp  # noqa: E402
 from jaxlpm.problems.transcription import (equality, equality_jacobian,  # noqa: E402
                                            lagrangian_hessian, objective)
+from jaxlpm.batch.sweep import map_in_groups  # noqa: E402
 from jaxlpm.solvers import newton_transfer  # noqa: E402
 from jaxlpm.solvers.condensed import CondensedSecondOrder  # noqa: E402
 from jaxlpm.solvers.newton import _kkt_step, kkt_residual  # noqa: E402
@@ -494,8 +495,8 @@ def main(argv=None):
     res["batched"] = {}
     vsolve = jax.vmap(newton, in_axes=(0, None))
 
-    def mapped(ps, g):
-        return jax.lax.map(lambda p: newton(p, g), ps, batch_size=args.map_width)
+    def mapped(ps, g):       # width 1: one problem at a time, not vmapped
+        return map_in_groups(lambda p: newton(p, g), ps, args.map_width)
 
     runs = [(str(B), f"jit(vmap(newton_transfer)) x{B}", vsolve, B) for B in batches]
     if args.mapped:

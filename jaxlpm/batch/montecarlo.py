@@ -30,7 +30,8 @@ from .._validation import require_x64
 from ..status import Status
 from ..verify import control_interpolant, propagate_linear, propagate_nonlinear
 from .dispersion import dispersion_parameters, mei2010_dispersion
-from .sweep import PERCENTILES, converged_statistics, sweep, transfer_family
+from .sweep import (PERCENTILES, converged_statistics, map_in_groups, sweep,
+                    transfer_family)
 
 REPLAN_PARAMETERS = ("a", "e", "i", "raan", "argp", "f0", "duration", "x0", "xf")
 
@@ -135,8 +136,7 @@ def _fly_all(draws, control, problem, model, batch_size):
     nominal = dict(gain=jnp.ones(1), axis=jnp.array([[0.0, 0.0, 1.0]]), angle=jnp.zeros(1),
                    dx0=jnp.zeros((1, 6)))
     rows = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), nominal, draws)
-    return jax.lax.map(lambda d: _fly(d, control, problem, model), rows,
-                       batch_size=batch_size)
+    return map_in_groups(lambda d: _fly(d, control, problem, model), rows, batch_size)
 
 
 def execution_monte_carlo(key, plan, n: int, errors: ExecutionErrors, model: str = "two-body",

@@ -102,6 +102,13 @@ HOLDS = ("perigee", "a")
 TRANSFER_METHODS = {"kkt": "linear", "stm": "linear", "newton": "two-body"}
 
 
+def map_in_groups(fun, xs, width):
+    """`lax.map` of fun over xs' leading axis in vmapped groups of `width` members; width 1
+    (or None) runs the members one at a time, not vmapped: a vmap, even of one member, turns
+    every `lax.cond` of an iterative solver into a select that runs both branches."""
+    return jax.lax.map(fun, xs, batch_size=None if width in (None, 1) else width)
+
+
 def transfer_builder(base: EnergyOptimalTransfer, hold: str = "perigee") -> Callable:
     """Build an `EnergyOptimalTransfer` from `base` with a member's parameters replacing its
     leaves: orbit elements (e, a, i, raan, argp, f0; SI, rad), the duration as `revolutions`
@@ -524,7 +531,7 @@ def _chunk_function(family, grid, batch_size, mesh):
         return family.solve(family.build(p), grid)
 
     def block(ps):
-        return jax.lax.map(one, ps, batch_size=batch_size)
+        return map_in_groups(one, ps, batch_size)
 
     # check_vma=False: the blocks never communicate, and the varying-axes type check rejects
     # the cotangents of custom_vjp rules (jaxopt's implicit diff) under reverse mode.

@@ -9,7 +9,6 @@ exactly two-body. SI units: m, m/s, s.
 """
 
 import diffrax
-import jax
 import jax.numpy as jnp
 
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH

@@ -44,24 +44,21 @@ from ..problems.transcription import (collocated_rows, equality, lagrangian, n_s
                                       unpack)
 
 
-_CONTROLS, _NO_VELOCITY, _ALL = slice(6, 9), np.array([0, 1, 2, 6, 7, 8]), slice(0, 9)  # rows
+_NO_VELOCITY = np.array([0, 1, 2, 6, 7, 8])      # the r and u rows of a point block (r, v, u)
 
 
 def point_reduced_hessian(Tp, blocks):
     """sum_i Tp_i^T H_i Tp_i for point blocks H_i (n, 9, 9) over (r, v, u) and the matching
-    rows Tp_i (n, 9, k) of T, over only the rows of the blocks that are not zero at every
-    point: the control rows alone where the state rows vanish (dynamics and path terms linear
-    in x, as for HCW), positions and controls where the velocity rows vanish (velocity-linear
-    dynamics: gravity and the LVLH frame's Coriolis term), else all nine."""
+    rows Tp_i (n, 9, k) of T; where the velocity rows vanish at every point (velocity-linear
+    dynamics and path terms: gravity, the LVLH frame's Coriolis term, HCW) only the position
+    and control rows enter."""
     def over(rows):
         Tr = Tp[:, rows]
         return jnp.einsum("iak,ial->kl", Tr,
                           jnp.einsum("iab,ibl->ial", blocks[:, rows][:, :, rows], Tr))
 
-    used = jnp.any(blocks != 0, axis=(0, 2))                        # (9,) rows in use
-    pattern = jnp.where(~jnp.any(used[:6]), 0, jnp.where(~jnp.any(used[3:6]), 1, 2))
-    return jax.lax.switch(pattern, [lambda: over(_CONTROLS), lambda: over(_NO_VELOCITY),
-                                    lambda: over(_ALL)])
+    return jax.lax.cond(jnp.any(blocks[:, 3:6] != 0), lambda: over(slice(0, 9)),
+                        lambda: over(_NO_VELOCITY))
 
 
 class CondensedSecondOrder:
