@@ -127,8 +127,11 @@ def test_four_devices_agree_with_one(reference, tmp_path):
         assert set(a) == set(b)
         for name in ("index", "N", "e", "revolutions", "status"):
             np.testing.assert_array_equal(a[name], b[name])
+        # one device maps members one at a time, four vmap their blocks (conds become
+        # selects): the same Newton solve to KKT tolerance 1e-10 by different round-off, so
+        # the results agree to ~1e-10 relative, not bit for bit (observed 3.7e-11)
         for name in ("cost", "cost_true_anomaly", "delta_v", "max_control"):
-            np.testing.assert_allclose(a[name], b[name], rtol=1e-12, atol=0)
+            np.testing.assert_allclose(a[name], b[name], rtol=1e-9, atol=0)
 
 
 KILL_AT = 5          # chunks 1-3 (N = 8) and 4 (N = 32) finished, the 5th in flight
