@@ -204,7 +204,8 @@ class CondensedSecondOrder:
     def _basis(self, z):
         """(coefficients, null space (Q1, R1, Z), directions) at z."""
         coef = self._coefficients(z)
-        return (coef,) + (self._fixed or self._z_independent(coef, z.dtype))
+        fixed = self._z_independent(coef, z.dtype) if self._fixed is None else self._fixed
+        return (coef,) + fixed
 
     # ------------------------------------------------------------------ the interface
     def prepare(self, z, lam):
