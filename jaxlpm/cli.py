@@ -21,21 +21,49 @@ def _setup_jax():
     return cache
 
 
+def _why_unwritable(path: Path, directory: bool) -> str | None:
+    """Why `path`, a directory to create or write into (or a file to write), cannot be
+    written, or None; creates nothing."""
+    if path.exists():
+        if path.is_dir() != directory:
+            return "it is not a directory" if directory else "it is a directory"
+        target = path
+    else:
+        target = next(p for p in path.absolute().parents if p.exists())
+        if not target.is_dir():
+            return f"{target} is not a directory"
+    if not os.access(target, os.W_OK | (os.X_OK if target.is_dir() else 0)):
+        return f"no write permission on {target}"
+    return None
+
+
+def _require_writable(prog: str, paths: dict) -> None:
+    """Exit with status 2 and a one-line message on stderr if one of `paths` ({option:
+    (path, is a directory)}) cannot be written: checked before any computation."""
+    for option, (path, directory) in paths.items():
+        why = _why_unwritable(path, directory)
+        if why is not None:
+            print(f"{prog}: error: cannot write {option} {path}: {why}", file=sys.stderr)
+            raise SystemExit(2)
+
+
 def _reproduce(args):
     t0 = time.perf_counter()
+    from .cases import CASES
+
+    case = CASES[args.case]
+    out_dir = Path(args.out) if args.out else Path("results") / case.NAME
+    json_path = Path(args.json) if args.json else out_dir / f"{case.NAME}.json"
+    _require_writable("jaxlpm reproduce", {"--out": (out_dir, True),
+                                           "--json": (json_path, False)})
 
     def log(msg):
         print(msg, flush=True)
 
     log(f"jaxlpm reproduce {args.case}: importing JAX and the library ...")
     cache = _setup_jax()
-    from .cases import CASES
-
-    case = CASES[args.case]
     log(f"{case.TITLE}\ncompilation cache: {cache}")
-    out_dir = Path(args.out) if args.out else Path("results") / case.NAME
     result = case.reproduce(out_dir, log)
-    json_path = Path(args.json) if args.json else out_dir / f"{case.NAME}.json"
     json_path.parent.mkdir(parents=True, exist_ok=True)
     json_path.write_text(json.dumps(result, indent=2))
     log(f"wrote {json_path}\ndone in {time.perf_counter() - t0:.1f} s")
@@ -79,6 +107,8 @@ def _values(text, integer=False):
 def _sweep(args):
     import importlib
 
+    out = Path(args.out) if args.out else Path("results") / f"sweep_{args.case}_{args.method}"
+    _require_writable("jaxlpm sweep", {"--out": (out, True)})
     cache = _setup_jax()
     from .batch import parameter_grid, sensitivity_family, sweep, transfer_family
 
@@ -90,7 +120,6 @@ def _sweep(args):
             if getattr(args, k) is not None}
     if not axes:
         raise SystemExit("jaxlpm sweep: give at least one of --e, --revolutions, --duration")
-    out = Path(args.out) if args.out else Path("results") / f"sweep_{args.case}_{args.method}"
     held = family.definition["held_when_e_varies"]
     print(f"jaxlpm sweep {args.case} (method {args.method}): "
           + ", ".join(f"{k} {len(v)} values in [{v.min():g}, {v.max():g}]" for k, v in axes.items())

@@ -5,6 +5,7 @@ law: compile time dominates, and the persistent cache (JAXLPM_CACHE_DIR, set by 
 serves the subprocesses."""
 
 import dataclasses
+import hashlib
 import json
 import os
 import re
@@ -183,6 +184,74 @@ def test_chunk_on_disk_but_not_in_manifest(reference, tmp_path):
     assert m["chunks"]["N32/chunk_00002"]["run"] == 0 and len(m["runs"]) == 2
     assert (out / "N32" / "chunk_00002.npz").stat().st_mtime_ns == mtime
     assert not any(c["run"] == 1 for c in m["chunks"].values())
+
+
+def sha256(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def half(path):
+    """The first half of a file's bytes: a chunk cut short (a full disk, a killed copy)."""
+    data = path.read_bytes()
+    return data[:len(data) // 2]
+
+
+def test_rerun_recomputes_corrupt_chunks(reference, tmp_path):
+    """Chunk files emptied, truncated, swapped or deleted (a full disk, a bad copy): the rerun
+    warns about each, computes exactly those again and leaves the good ones alone, including
+    an unreadable file that is not in the manifest (the kill-between-writes path) and a good
+    one logged before the manifest had checksums (verified by reading, then checksummed)."""
+    result, _, ref_out = reference
+    out = tmp_path / "corrupt"
+    shutil.copytree(ref_out, out)
+    m = manifest(out)
+    chunk = {key: out / f"{key}.npz" for key in m["chunks"]}
+    good = ["N8/chunk_00000", "N32/chunk_00000"]
+    bad = {"N8/chunk_00001": chunk["N8/chunk_00000"].read_bytes(),   # valid .npz, other bytes
+           "N8/chunk_00002": b"",
+           "N32/chunk_00001": half(chunk["N32/chunk_00001"])}
+    for key, data in bad.items():
+        chunk[key].write_bytes(data)
+    chunk["N32/chunk_00002"].unlink()
+    del m["chunks"]["N32/chunk_00001"]                # truncated and not logged
+    m["chunks"]["N32/chunk_00000"].pop("sha256", None)  # logged by a jaxlpm without checksums
+    (out / "manifest.json").write_text(json.dumps(m))
+    mtimes = {key: chunk[key].stat().st_mtime_ns for key in good}
+    with pytest.warns(UserWarning) as warned:
+        sweep(family(), PARAMS, NS, out, chunk_size=CHUNK, batch_size=1, progress=False)
+    messages = [str(w.message) for w in warned]
+    for key in [*bad, "N32/chunk_00002"]:
+        assert sum(str(chunk[key]) in msg for msg in messages) == 1, (key, messages)
+    m = manifest(out)
+    assert sorted(k for k, c in m["chunks"].items() if c["run"] == 1) == sorted(
+        [*bad, "N32/chunk_00002"])
+    for key in good:
+        assert chunk[key].stat().st_mtime_ns == mtimes[key] and m["chunks"][key]["run"] == 0
+    assert all(c["sha256"] == sha256(chunk[key]) for key, c in m["chunks"].items())
+    resumed = load_sweep(out)
+    for N in NS:                               # the same executable: the same bits
+        for name, col in result.tables[N].items():
+            np.testing.assert_array_equal(resumed.tables[N][name], col)
+
+
+@pytest.mark.parametrize("damage", ["empty", "truncated", "swapped", "truncated-unchecked"])
+def test_load_sweep_names_a_corrupt_chunk(reference, tmp_path, damage):
+    """load_sweep refuses a damaged chunk with a ValueError naming it (not a zip traceback,
+    nor, for a valid file with other bytes, silently wrong rows); "truncated-unchecked": a
+    manifest without checksums (an older jaxlpm), where the file's unreadability shows."""
+    _, _, ref_out = reference
+    out = tmp_path / "corrupt"
+    shutil.copytree(ref_out, out)
+    f, other = out / "N32" / "chunk_00001.npz", out / "N32" / "chunk_00000.npz"
+    f.write_bytes(b"" if damage == "empty" else other.read_bytes() if damage == "swapped"
+                  else half(f))
+    if damage == "truncated-unchecked":
+        m = manifest(out)
+        for c in m["chunks"].values():
+            c.pop("sha256", None)
+        (out / "manifest.json").write_text(json.dumps(m))
+    with pytest.raises(ValueError, match=f"sweep chunk {re.escape(str(f))} is corrupt"):
+        load_sweep(out)
 
 
 def test_refuses_a_different_sweep(reference):

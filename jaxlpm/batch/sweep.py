@@ -18,25 +18,32 @@ On disk (`ChunkStore`), under `out`:
                            Ns, chunk size, parameter names, shapes and SHA-256), `runs` (one
                            entry per invocation), `compiles` (seconds per N and run), `chunks`
                            ({"N16/chunk_00003": compute log: run, seconds, devices, members,
-                           converged, finished}) and, once complete, `summary` (per N: members,
-                           converged, the non-converged member indices).
+                           converged, finished, and the file's sha256}) and, once complete,
+                           `summary` (per N: members, converged, the non-converged member
+                           indices).
     N<N>/chunk_XXXXX.npz   one finished chunk: index (member numbers), N, the members'
                            parameters and the solver's outputs, one row per member;
                            `pandas.DataFrame({k: v for k, v in np.load(f).items() if v.ndim == 1})`.
 Files are written to a temporary name and renamed (atomic), so a killed run loses at most the
 chunk in flight; re-running the same sweep skips the chunks on disk, and a directory made by a
-different definition is refused with a ValueError naming what differs.
+different definition is refused with a ValueError naming what differs. A chunk file that is
+missing, unreadable (truncated, empty) or differs from its logged SHA-256 is removed and
+computed again by the rerun (with a warning); `load_sweep` refuses it with a ValueError naming
+the file.
 
 The persistent compilation cache is the caller's to configure (the `jaxlpm sweep` CLI does);
 with it a rerun skips compilation too.
 """
 
 import hashlib
+import io
 import json
 import os
 import platform
 import sys
 import time
+import warnings
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -305,15 +312,40 @@ def parameter_grid(**axes) -> dict:
 # files
 
 
-def save_npz_atomic(path: Path, **arrays) -> None:
-    """np.savez to a temporary name in the same folder, flushed to disk, then renamed."""
+def save_npz_atomic(path: Path, **arrays) -> str:
+    """np.savez to a temporary name in the same folder, flushed to disk, then renamed; returns
+    the SHA-256 (hex) of the file's bytes."""
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    data = buf.getvalue()
     with open(tmp, "wb") as fh:
-        np.savez(fh, **arrays)
+        fh.write(data)
         fh.flush()
         os.fsync(fh.fileno())
     os.replace(tmp, path)
+    return hashlib.sha256(data).hexdigest()
+
+
+def _read_chunk(path: Path, sha256: str | None = None) -> tuple[dict, str]:
+    """A chunk file's arrays (compute_log included) and the SHA-256 of its bytes; ValueError
+    naming the file if they differ from `sha256` (when given) or it is not a readable chunk
+    (empty, truncated, not an .npz, no compute_log)."""
+    data = Path(path).read_bytes()
+    digest = hashlib.sha256(data).hexdigest()
+    if sha256 is not None and digest != sha256:
+        raise ValueError(f"sweep chunk {path} is corrupt: its SHA-256 {digest} differs from the "
+                         f"manifest's {sha256}")
+    try:
+        with np.load(io.BytesIO(data)) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile) as err:
+        raise ValueError(f"sweep chunk {path} is corrupt ({len(data)} bytes): "
+                         f"{type(err).__name__}: {err}") from None
+    if "compute_log" not in arrays:
+        raise ValueError(f"sweep chunk {path} is corrupt: it has no compute_log")
+    return arrays, digest
 
 
 def _json_default(x):
@@ -341,8 +373,9 @@ def _canonical(obj):
 class ChunkStore:
     """A results directory of finished chunks: `out/manifest.json` plus one .npz per chunk
     under `out/<group>/`. Opening it creates the manifest or checks that the existing one has
-    the same `definition` (ValueError naming the differences otherwise) and starts a new run
-    entry; `write` stores a chunk atomically and logs it under its key "<group>/<name>"."""
+    the same `definition` (ValueError naming the differences otherwise), starts a new run
+    entry and checks the chunk files against the log (`_reconcile`); `write` stores a chunk
+    atomically and logs it, with its SHA-256, under its key "<group>/<name>"."""
 
     def __init__(self, out, definition: dict, run_info: dict | None = None):
         self.out = Path(out)
@@ -371,19 +404,33 @@ class ChunkStore:
         self.manifest = m
         self.run = len(m["runs"])
         m["runs"].append(_canonical(dict(run=self.run, **(run_info or {}))))
-        self._recover()
+        self._reconcile()
         self._save()
 
-    def _recover(self):
-        """Log chunks that reached the disk but not the manifest (a kill between the two
-        writes), from the log each chunk file carries; remove stale temporary files."""
+    def _reconcile(self):
+        """Make the log and the chunk files agree: remove stale temporary files; unlog (with a
+        warning) a logged chunk whose file is missing; remove and unlog (with a warning) a
+        file that differs from its logged SHA-256 or, unlogged or logged before checksums,
+        cannot be read; log (with its SHA-256) a good file that reached the disk but not the
+        manifest (a kill between the two writes) from the compute log it carries. What is
+        unlogged is computed again."""
         for tmp in self.out.glob("**/.*.tmp"):
             tmp.unlink()
-        for f in self.out.glob("*/*.npz"):
-            key = f"{f.parent.name}/{f.stem}"
-            if key not in self.manifest["chunks"]:
-                with np.load(f) as z:
-                    self.manifest["chunks"][key] = json.loads(str(z["compute_log"]))
+        chunks = self.manifest["chunks"]
+        on_disk = {f"{f.parent.name}/{f.stem}" for f in self.out.glob("*/*.npz")}
+        for key in sorted(set(chunks) | on_disk):
+            f = self.out / f"{key}.npz"
+            log = chunks.pop(key, None)
+            if key not in on_disk:
+                warnings.warn(f"sweep chunk {f} is in the manifest but missing: computing it again")
+                continue
+            try:
+                arrays, sha256 = _read_chunk(f, (log or {}).get("sha256"))
+            except ValueError as err:
+                warnings.warn(f"{err}; removed, computing it again")
+                f.unlink()
+                continue
+            chunks[key] = dict(log or json.loads(str(arrays["compute_log"])), sha256=sha256)
 
     def _save(self):
         write_json_atomic(self.out / MANIFEST, self.manifest)
@@ -397,8 +444,9 @@ class ChunkStore:
     def write(self, group: str, name: str, arrays: dict, log: dict) -> None:
         log = _canonical(dict(run=self.run, **log))
         self.path(group, name).parent.mkdir(exist_ok=True)
-        save_npz_atomic(self.path(group, name), compute_log=np.array(json.dumps(log)), **arrays)
-        self.manifest["chunks"][f"{group}/{name}"] = log
+        sha256 = save_npz_atomic(self.path(group, name), compute_log=np.array(json.dumps(log)),
+                                 **arrays)
+        self.manifest["chunks"][f"{group}/{name}"] = dict(log, sha256=sha256)
         self._save()
 
     def update(self, **entries) -> None:
@@ -683,12 +731,14 @@ def _concatenate(chunks):
 
 def load_sweep(out) -> SweepResult:
     """Read a sweep directory; ValueError if a chunk is missing (an unfinished sweep: re-run
-    its command to complete it)."""
+    its command to complete it) or corrupt (naming the file: re-running the command computes
+    it again)."""
     out = Path(out)
     path = out / MANIFEST
     if not path.exists():
         raise ValueError(f"{out} is not a sweep directory (no {MANIFEST})")
-    d = json.loads(path.read_text())["definition"]
+    m = json.loads(path.read_text())
+    d = m["definition"]
     n_chunks = -(-d["members"] // d["chunk_size"])
     tables = {}
     for N in d["Ns"]:
@@ -699,7 +749,8 @@ def load_sweep(out) -> SweepResult:
                              f"chunks ({', '.join(missing[:5])}...); re-run the sweep's command")
         chunks = []
         for f in files:
-            with np.load(f) as z:
-                chunks.append({k: z[k] for k in z.files if k != "compute_log"})
+            arrays, _ = _read_chunk(f, m["chunks"].get(f"N{N}/{f.stem}", {}).get("sha256"))
+            del arrays["compute_log"]
+            chunks.append(arrays)
         tables[N] = _concatenate(chunks)
     return SweepResult(tables, out)
