@@ -1,6 +1,9 @@
 """Verification propagators against independent computations, and the mei2010 reproduction."""
 
 import json
+import os
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -10,15 +13,15 @@ from scipy.integrate import solve_ivp
 
 jax.config.update("jax_enable_x64", True)
 
-from jaxlpm import KeplerOrbit, lgl, solve  # noqa: E402
+from jaxlpm import KeplerOrbit, MinimumTimeTransfer, Status, lgl, solve  # noqa: E402
 from jaxlpm.cases import mei2010  # noqa: E402
-from jaxlpm.constants import R_EARTH  # noqa: E402
+from jaxlpm.constants import J2_EARTH, R_EARTH  # noqa: E402
 from jaxlpm.dynamics import relative_inertial_rhs, yamanaka_ankersen_stm  # noqa: E402
 from jaxlpm.orbits import (elements_to_state, lvlh_to_relative_inertial, lvlh_to_th,  # noqa: E402
                            relative_inertial_to_lvlh, th_to_lvlh, time_from_true_anomaly,
                            true_anomaly_from_time)
 from jaxlpm.verify import (PAD_TO, ControlInterpolant, control_interpolant,  # noqa: E402
-                           propagate_linear, propagate_nonlinear)
+                           min_time_shooting, propagate_linear, propagate_nonlinear)
 
 ORBIT = KeplerOrbit(a=jnp.asarray(9500e3), e=jnp.asarray(0.3), i=jnp.asarray(0.5),
                     raan=jnp.asarray(0.5), argp=jnp.asarray(0.2), f0=jnp.asarray(0.4))
@@ -98,6 +101,72 @@ def test_time_of_interpolant_nodes():
     np.testing.assert_allclose(vals, sol.node_controls, rtol=1e-12, atol=1e-18)
     t = time_from_true_anomaly(sol.problem.orbit, sol.node_f)
     np.testing.assert_allclose(t, sol.node_times, rtol=1e-12)
+
+
+def test_vmapped_j2_flight_flags_a_nan_orbit():
+    """A NaN inclination (traced: no Python check sees it) in a vmapped J2 flight: ok False for
+    that member, the other as if flown alone. Members take their own adaptive steps and
+    vectorisation only reorders rounding, so 1e-12 (the integrator's tolerance) relative to
+    the largest component bounds the difference; diffrax's default throw=True raised here."""
+    T = 1000.0
+    ci = zero_control(ORBIT.f0, true_anomaly_from_time(ORBIT, T))
+    fly = lambda i: propagate_nonlinear(ORBIT.replace(i=i), X0, T, ci, 2, J2_EARTH)[1:]
+    incl = jnp.array([0.5, jnp.nan])
+    xs, ok = jax.jit(jax.vmap(fly))(incl)
+    assert np.asarray(ok).tolist() == [True, False]
+    alone, ok_alone = jax.jit(fly)(incl[0])
+    assert bool(ok_alone)
+    assert float(jnp.max(jnp.abs(xs[0] - alone)) / jnp.max(jnp.abs(alone))) < 1e-12
+
+
+def test_shooting_returns_the_integrators_status():
+    """Guesses whose flow cannot be integrated give a status, not an exception: a NaN costate
+    (NONFINITE, the flow skipped) and a duration of ~1e6 revolutions (MAX_ITERATIONS: the
+    100 000-step limit)."""
+    orbit = KeplerOrbit(a=jnp.asarray(7000e3), e=jnp.asarray(0.0))
+    prob = MinimumTimeTransfer(orbit, jnp.zeros(6), jnp.array([5.0, 30.0, -3.0, 0.0, 0.5, 0.0]),
+                               jnp.asarray(1.0), jnp.asarray(200.0), jnp.asarray([0.0, jnp.inf]))
+    shoot = jax.jit(lambda lam, t: min_time_shooting(prob, lam, t))
+    lam = jnp.array([0.0, 0.0, 0.0, 0.0, -1.0, 0.0])
+    nan_guess = shoot(lam.at[4].set(jnp.nan), 100.0)
+    assert int(nan_guess.status) == Status.NONFINITE
+    long_guess = shoot(lam, 1e6 * float(orbit.period))
+    assert int(long_guess.status) == Status.MAX_ITERATIONS
+
+
+_X64_OFF = """
+import jax.numpy as jnp
+from jaxlpm import KeplerOrbit, MinimumTimeTransfer
+from jaxlpm.verify import (PAD_TO, ControlInterpolant, min_time_shooting, propagate_linear,
+                           propagate_nonlinear)
+from jaxlpm.verify.inertial import fly
+orbit = KeplerOrbit(a=jnp.asarray(7e6), e=jnp.asarray(0.1))
+control = ControlInterpolant(jnp.full(PAD_TO, 10.0).at[0].set(0.0),
+                             jnp.zeros(PAD_TO).at[0].set(1.0), jnp.zeros((PAD_TO, 3)),
+                             orbit.f0, orbit.f0 + 0.1)
+x0 = jnp.array([100.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+problem = MinimumTimeTransfer(orbit, jnp.zeros(6), x0, jnp.asarray(1.0), jnp.asarray(200.0))
+calls = [lambda: propagate_linear(orbit, x0, 100.0, control, 3),
+         lambda: propagate_nonlinear(orbit, x0, 100.0, control, 3),
+         lambda: fly(jnp.array([7e6, 0.0, 0.0, 0.0, 7.5e3, 0.0]), 800.0, 0.0, 100.0),
+         lambda: min_time_shooting(problem, jnp.ones(6), 100.0)]
+for call in calls:
+    try:
+        call()
+        print("no error")
+    except ValueError as err:
+        print("ValueError", "float64" in str(err))
+"""
+
+
+def test_verify_entry_points_refuse_float32():
+    """With float64 off (a fresh process: toggling x64 here would break the other tests) the
+    public verify functions raise jaxlpm's ValueError before integrating in float32."""
+    env = {k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"}
+    out = subprocess.run([sys.executable, "-c", _X64_OFF], capture_output=True, text=True,
+                         env=env, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split("\n")[:4] == ["ValueError True"] * 4, out.stdout
 
 
 def test_reproduce_mei2010(tmp_path):

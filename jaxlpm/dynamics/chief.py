@@ -12,6 +12,8 @@ everything is differentiable (also with respect to J2):
     2. in s, s = f0 + (s_f - f0) sigma:   d[r, v, t]/dsigma = (s_f - f0) r^2/|h| [v, a(r), 1]
 
 saving pass 2 at the requested sigma. a = two-body + J2 (`gravity_acceleration`), SI units.
+Both return ok = False instead of raising when the integration fails (`solve_ode`: the step
+limit over thousands of revolutions, or a non-finite orbit under vmap).
 """
 
 from dataclasses import dataclass
@@ -22,7 +24,9 @@ import jax.numpy as jnp
 
 from ..orbits import (KeplerOrbit, elements_to_state, time_from_true_anomaly,
                       true_anomaly_from_time)
+from ..status import Status
 from .gravity import gravity_acceleration
+from .propagation import solve_ode
 
 RTOL = ATOL = 1e-13
 
@@ -59,11 +63,10 @@ def kepler_chief(orbit: KeplerOrbit, s):
 
 
 def _integrate(rhs, y0, scale, saveat):
-    term = diffrax.ODETerm(lambda x, y, args: rhs(y * scale) / scale)
-    sol = diffrax.diffeqsolve(
-        term, diffrax.Dopri8(), 0.0, 1.0, dt0=None, y0=y0 / scale, saveat=saveat,
-        stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL), max_steps=100_000)
-    return sol.ys * scale, sol.result == diffrax.RESULTS.successful
+    """(ys, ok) over sigma in [0, 1]; ok False when `solve_ode` failed (never raises)."""
+    ys, status = solve_ode(lambda x, y: rhs(y * scale) / scale, y0 / scale, 0.0, 1.0, saveat,
+                           RTOL, ATOL, 100_000)
+    return ys * scale, status == Status.SUCCESS
 
 
 def _scale(orbit, last):
@@ -73,7 +76,7 @@ def _scale(orbit, last):
 
 def j2_final_anomaly(orbit: KeplerOrbit, duration, j2, r_eq):
     """Regularised anomaly s_f reached after `duration` s on the J2-perturbed orbit that
-    osculates `orbit` at its epoch. Returns (s_f, ok)."""
+    osculates `orbit` at its epoch. Returns (s_f, ok); s_f is meaningless where ok is False."""
     r, v = elements_to_state(orbit)
 
     def rhs(y):
@@ -87,7 +90,7 @@ def j2_final_anomaly(orbit: KeplerOrbit, duration, j2, r_eq):
 
 def j2_chief(orbit: KeplerOrbit, s_f, sigma, j2, r_eq):
     """J2-perturbed chief at s = f0 + (s_f - f0) sigma, sigma (k,) increasing in [0, 1].
-    Returns (ChiefSamples, ok)."""
+    Returns (ChiefSamples, ok); the samples are meaningless where ok is False."""
     r, v = elements_to_state(orbit)
     span = s_f - orbit.f0
 

@@ -1,4 +1,6 @@
-"""Coast propagation of one inertial state under two-body + J2 gravity (`gravity.inertial_rhs`).
+"""Coast propagation of one inertial state under two-body + J2 gravity
+(`gravity.inertial_rhs`), and `solve_ode`, the non-raising diffrax call every jaxlpm
+integrator goes through.
 
 Integrator: diffrax Dopri8 (8th-order Dormand-Prince, adaptive, PID step control) at
 rtol = atol = 1e-12 on the state scaled by |r0| and |r0| sqrt(mu / |r0|^3), so positions are
@@ -9,13 +11,47 @@ exactly two-body. SI units: m, m/s, s.
 """
 
 import diffrax
+import jax
 import jax.numpy as jnp
 
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH
+from ..status import Status
 from .gravity import inertial_rhs
 
 RTOL = ATOL = 1e-12
 MAX_STEPS = 100_000
+
+
+def _all_finite(tree):
+    leaves = jax.tree_util.tree_leaves(tree)
+    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
+
+
+def solve_ode(rhs, y0, t0, t1, saveat, rtol, atol, max_steps, solver=diffrax.Dopri8(),
+              adjoint=diffrax.RecursiveCheckpointAdjoint()):
+    """Integrate dy/dt = rhs(t, y) (y any pytree) from t0 to t1 with PID-controlled adaptive
+    steps (dt0 chosen by diffrax); never raises (diffrax throw=False), also under jit/vmap.
+
+    Returns (ys at `saveat`, status int32): SUCCESS; MAX_ITERATIONS when max_steps ran out
+    (ys: the last accepted state at t1, inf at save times not reached); NONFINITE for any
+    other diffrax failure, non-finite saved states, or a non-finite t1 - t0, y0 or
+    rhs(t0, y0). In that last case the solve is skipped (y' = 0 from y = 0: a few steps, not
+    max_steps rejected ones, so one bad member does not stall a vmapped batch) and ys are
+    zeros.
+    """
+    bad = ~(jnp.isfinite(t1 - t0) & _all_finite(y0) & _all_finite(rhs(t0, y0)))
+    blank = lambda tree: jax.tree_util.tree_map(lambda x: jnp.where(bad, 0.0, x), tree)
+    sol = diffrax.diffeqsolve(
+        diffrax.ODETerm(lambda t, y, args: blank(rhs(t, y))), solver, t0, t1, dt0=None,
+        y0=blank(y0), saveat=saveat,
+        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol), max_steps=max_steps,
+        adjoint=adjoint, throw=False)
+    success = (sol.result == diffrax.RESULTS.successful) & _all_finite(sol.ys)
+    out_of_steps = sol.result == diffrax.RESULTS.max_steps_reached
+    status = jnp.select([bad, success, out_of_steps],
+                        [Status.NONFINITE, Status.SUCCESS, Status.MAX_ITERATIONS],
+                        Status.NONFINITE)
+    return sol.ys, status.astype(jnp.int32)
 
 
 def _scales(state, mu):
@@ -27,17 +63,14 @@ def propagate(state, duration, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None):
     """Coast `state` = [r (m), v (m/s)] for `duration` (s, > 0; negative integrates backwards).
 
     Returns (final state (6,), ok) or, with `ts` (times in [0, duration], s), (states
-    (len(ts), 6), ok); ok is False when diffrax did not finish (step limit or non-finite).
+    (len(ts), 6), ok); ok is False when the integration failed (`solve_ode`: step limit,
+    non-finite input or states); never raises.
     """
     state = jnp.asarray(state, dtype=jnp.float64)
     scale = _scales(state, mu)
-    term = diffrax.ODETerm(
-        lambda t, y, args: inertial_rhs(y * scale, jnp.zeros(3), mu, j2, r_eq) / scale)
     saveat = diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts)
-    sol = diffrax.diffeqsolve(
-        term, diffrax.Dopri8(), 0.0, duration, dt0=None, y0=state / scale, saveat=saveat,
-        stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL), max_steps=MAX_STEPS,
-        throw=False)
-    ys = sol.ys * scale
-    return (ys[-1] if ts is None else ys), sol.result == diffrax.RESULTS.successful
-
+    ys, status = solve_ode(
+        lambda t, y: inertial_rhs(y * scale, jnp.zeros(3), mu, j2, r_eq) / scale,
+        state / scale, 0.0, duration, saveat, RTOL, ATOL, MAX_STEPS)
+    ys = ys * scale
+    return (ys[-1] if ts is None else ys), status == Status.SUCCESS

@@ -56,7 +56,7 @@ from .._validation import check_finite, check_shape, is_concrete, require_x64
 from ..collocation import Grid
 from ..constants import G0
 from ..dynamics.gravity import inertial_rhs
-from ..dynamics.propagation import propagate
+from ..dynamics.propagation import propagate, solve_ode
 from ..problems.ocp import OptimalControlProblem
 from ..problems.transcription import pack, unpack
 from ..status import Status
@@ -158,9 +158,10 @@ class FiniteBurnSolution:
     J2 coast from the collocated end state. duration_gradient = dD*/dt_s at t_start (s/s; 0
     at the optimum). status (`Status`): SUCCESS, or the arc solve's failure (INFEASIBLE: no
     burn within max_duration reaches r_target), MAX_ITERATIONS (the arc solve, the model
-    rebuilds or the t_s search), NONFINITE, INVALID_INPUT (traced bad input; outputs zeroed).
-    Residuals of the last arc solve (scaled units); search_iterations, arc_solves
-    (augmented-Lagrangian solves) and inner_iterations (Newton iterations) count the work."""
+    rebuilds or the t_s search), NONFINITE (also a failed coast or variational integration),
+    INVALID_INPUT (traced bad input; outputs zeroed). Residuals of the last arc solve (scaled
+    units); search_iterations, arc_solves (augmented-Lagrangian solves) and inner_iterations
+    (Newton iterations) count the work."""
 
     grid: Grid
     t_start: jax.Array
@@ -226,56 +227,57 @@ def _coast_end(x_e, duration, p):
 
 
 def _second_order_stm(x_e, duration, p):
-    """(Phi (6, 6), Psi (6, 6, 6)): first and second derivatives of the coast's final state
+    """(Phi (6, 6), Psi (6, 6, 6), ok): first and second derivatives of the coast's final state
     in its initial state, from the variational equations Phi' = J Phi, Psi' = J Psi +
     f''(Phi, Phi) (J, f'' of the right-hand side by autodiff) integrated by Dopri8 at
     rtol = atol = 1e-9 in the coast's scaled variables. Used only for the curvature of the
-    boundary model: it sets the outer convergence rate, not the converged point."""
+    boundary model: it sets the outer convergence rate, not the converged point. ok: the
+    integration succeeded (`solve_ode`)."""
     scale = _scales(p)
 
     def F(y):
         return inertial_rhs(y * scale, jnp.zeros(3), p["mu"], p["j2"], p["r_eq"]) / scale
 
-    def rhs(t, Y, args):
+    def rhs(t, Y):
         y, P, Q = Y
         J, Hf = jax.jacfwd(F)(y), jax.hessian(F)(y)
         return (F(y), J @ P, jnp.einsum("ij,jkl->ikl", J, Q)
                 + jnp.einsum("imn,mk,nl->ikl", Hf, P, P))
 
     Y0 = (x_e / scale, jnp.eye(6), jnp.zeros((6, 6, 6)))
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, duration, dt0=None, y0=Y0,
-        stepsize_controller=diffrax.PIDController(rtol=1e-9, atol=1e-9), max_steps=100_000,
-        throw=False)
-    _, P, Q = (leaf[-1] for leaf in sol.ys)
+    ys, status = solve_ode(rhs, Y0, 0.0, duration, diffrax.SaveAt(t1=True), 1e-9, 1e-9,
+                           100_000)
+    _, P, Q = (leaf[-1] for leaf in ys)
     Phi = P * scale[:, None] / scale[None, :]
     Psi = Q * scale[:, None, None] / (scale[None, :, None] * scale[None, None, :])
-    return Phi, Psi
+    return Phi, Psi, status == Status.SUCCESS
 
 
 def _end_model(z, ocp, grid):
-    """The terminal coast's Taylor model at z, its scaled nonlinear residual, miss (m), ok."""
+    """The terminal coast's Taylor model at z, its scaled nonlinear residual, miss (m), ok
+    (the coast and its variational equations integrated)."""
     p = ocp.params
     X, _, sf = unpack(z, ocp, grid)
     x_e = X[-1] * _scales(p)
     t_e = p["t_s"] + p["T"] * sf
     end, ok = _coast_end(x_e, p["t_f"] - t_e, p)
     A = jax.jacrev(lambda x: _coast_end(x, p["t_f"] - t_e, p)[0][:3])(x_e)
-    Phi, Psi = _second_order_stm(x_e, p["t_f"] - t_e, p)
+    Phi, Psi, ok_stm = _second_order_stm(x_e, p["t_f"] - t_e, p)
     model = {"r_f": end[:3], "v_f": end[3:], "A": A, "H": Psi[:3], "dv_dx": Phi[3:],
              "a_f": _rate(end, p)[3:], "x_e": x_e, "t_e": t_e}
     miss = jnp.linalg.norm(end[:3] - p["r_target"])
-    return model, miss / LENGTH, miss, ok
+    return model, miss / LENGTH, miss, ok & ok_stm
 
 
 def _arc_ocp(p, t_s, sf_guess, max_duration):
-    """The collocated arc problem for burn start t_s (s)."""
-    x_s, _ = propagate(p["state0"], t_s, p["mu"], p["j2"], p["r_eq"])
-    return OptimalControlProblem(
+    """(The collocated arc problem for burn start t_s (s), ok of the coast to t_s)."""
+    x_s, ok = propagate(p["state0"], t_s, p["mu"], p["j2"], p["r_eq"])
+    ocp = OptimalControlProblem(
         n_x=6, n_u=3, dynamics=_dynamics, running_cost=_no_running_cost, boundary=_boundary,
         s0=jnp.asarray(0.0), sf=sf_guess, params=dict(p, t_s=t_s, x_s=x_s),
         terminal_cost=_duration, free_final=True, path_equality=_unit_direction,
         final_bounds=jnp.stack([0.0, max_duration / p["T"]]))
+    return ocp, ok
 
 
 def _guess_z(ocp, grid, u):
@@ -294,7 +296,7 @@ def _solve_arc(p, grid, t_s, z, lam, max_duration, options):
     terminal model rebuilt at each solution until the nonlinear residual is below
     tol_boundary (at least one solve). Returns (z, lam, status, dD/dt_s (s/s), miss (m),
     [residuals], solves, Newton iterations)."""
-    ocp0 = _arc_ocp(p, t_s, z[-1], max_duration)
+    ocp0, ok_start = _arc_ocp(p, t_s, z[-1], max_duration)
     model, resid, miss, ok = _end_model(z, ocp0, grid)
 
     def step(c):
@@ -302,7 +304,7 @@ def _solve_arc(p, grid, t_s, z, lam, max_duration, options):
         ocp = ocp0.replace(params=dict(ocp0.params, model=model), sf=z[-1])
         res = augmented_lagrangian(ocp, grid, z, lam, options=options.al)
         new_model, resid, miss, ok = _end_model(res.z, ocp0, grid)
-        finite = jnp.all(jnp.isfinite(res.z)) & jnp.isfinite(resid) & ok
+        finite = jnp.all(jnp.isfinite(res.z)) & jnp.isfinite(resid) & ok & ok_start
         keep = lambda new, old: jnp.where(finite, new, old)
         status = jnp.where(finite, res.status, Status.NONFINITE).astype(jnp.int32)
         new_res = jnp.stack([res.constraint_residual, res.path_residual,
@@ -317,7 +319,7 @@ def _solve_arc(p, grid, t_s, z, lam, max_duration, options):
         return (k == 0) | ((k < options.max_models) & (status == Status.SUCCESS)
                            & (resid > options.tol_boundary))
 
-    status0 = jnp.where(ok, Status.SUCCESS, Status.NONFINITE).astype(jnp.int32)
+    status0 = jnp.where(ok & ok_start, Status.SUCCESS, Status.NONFINITE).astype(jnp.int32)
     init = (z, lam, model, jnp.asarray(0, jnp.int32), status0, resid, miss,
             jnp.asarray(0, jnp.int32), jnp.full(3, jnp.inf))
     z, lam, model, k, status, resid, miss, inner, residuals = jax.lax.while_loop(
@@ -359,7 +361,7 @@ def _finite_burn(problem, grid, t_impulse, dv_impulse, options: FiniteBurnOption
          "mass_rate": problem.mass_rate, "T": T}
     half_width = options.search_half_width * T
     lo, hi = t_s0 - half_width, t_s0 + half_width
-    z0 = _guess_z(_arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration), grid,
+    z0 = _guess_z(_arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration)[0], grid,
                   dv_impulse / dv)
 
     def cond(c):
@@ -388,7 +390,7 @@ def _finite_burn(problem, grid, t_impulse, dv_impulse, options: FiniteBurnOption
     status = jnp.where((status == Status.SUCCESS) & (jnp.abs(t_s - t_a) > options.search_tol),
                        Status.MAX_ITERATIONS, status)
     status = jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32)
-    ocp = _arc_ocp(p, t_s, z[-1], problem.max_duration)
+    ocp, _ = _arc_ocp(p, t_s, z[-1], problem.max_duration)   # layout for unpack only
     X, U, sf = unpack(z, ocp, grid)
     duration = T * sf
     node_times = t_s + 0.5 * duration * (grid.points + 1.0)

@@ -21,7 +21,9 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
+from .._validation import require_x64
 from ..dynamics import hcw_matrix
+from ..dynamics.propagation import solve_ode
 from ..problems.min_time import min_time_ocp, state_scale
 from ..status import Status
 
@@ -32,7 +34,8 @@ RTOL = ATOL = 1e-13
 @dataclass(frozen=True)
 class ShootingResult:
     """duration (s), costate0 (lambda(0), solver units), residual max |R| (solver units:
-    state error over L and L n, H + 1), iterations, status (`Status`)."""
+    state error over L and L n, H + 1; NaN if the guess's flow failed), iterations, status
+    (`Status`)."""
 
     duration: jax.Array
     costate0: jax.Array
@@ -42,31 +45,37 @@ class ShootingResult:
 
 
 def _flow(params, x0, lam0, length):
-    """[x, lambda](s0 + length) of the canonical system (solver units)."""
+    """([x, lambda](s0 + length) of the canonical system (solver units), its `solve_ode`
+    status)."""
     A = hcw_matrix(1.0)
 
-    def rhs(s, y, args):
+    def rhs(s, y):
         x, lam = y[:6], y[6:]
         lv = lam[3:]
         u = -lv / jnp.linalg.norm(lv)
         return jnp.concatenate([A @ x + jnp.concatenate([jnp.zeros(3), params["accel"] * u]),
                                 -A.T @ lam])
 
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, length, dt0=None,
-        y0=jnp.concatenate([x0, lam0]),
-        stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL),
-        adjoint=diffrax.ForwardMode(), max_steps=100_000)
-    return sol.ys[-1]
+    ys, status = solve_ode(rhs, jnp.concatenate([x0, lam0]), 0.0, length,
+                           diffrax.SaveAt(t1=True), RTOL, ATOL, 100_000,
+                           adjoint=diffrax.ForwardMode())
+    return ys[-1], status
+
+
+def _residual(p, params):
+    """(`shooting_residual`, the flow's status)."""
+    x0, lam0, length = params["x0"], p[:6], p[6]
+    y, status = _flow(params, x0, lam0, length)
+    A = hcw_matrix(1.0)
+    H0 = lam0 @ (A @ x0) - params["accel"] * jnp.linalg.norm(lam0[3:])
+    r = jnp.concatenate([y[:6] - params["xf"], jnp.atleast_1d(H0 + 1.0)])
+    return jnp.where(status == Status.SUCCESS, r, jnp.nan), status
 
 
 def shooting_residual(p, params):
-    """[x(s_f) - x_f; H(0) + 1] for p = [lambda(0), s_f - s0] (solver units)."""
-    x0, lam0, length = params["x0"], p[:6], p[6]
-    y = _flow(params, x0, lam0, length)
-    A = hcw_matrix(1.0)
-    H0 = lam0 @ (A @ x0) - params["accel"] * jnp.linalg.norm(lam0[3:])
-    return jnp.concatenate([y[:6] - params["xf"], jnp.atleast_1d(H0 + 1.0)])
+    """[x(s_f) - x_f; H(0) + 1] for p = [lambda(0), s_f - s0] (solver units); NaN where the
+    integration failed."""
+    return _residual(p, params)[0]
 
 
 def min_time_shooting(problem, costate0, duration, max_iterations: int = 30,
@@ -74,7 +83,11 @@ def min_time_shooting(problem, costate0, duration, max_iterations: int = 30,
     """Solve the necessary conditions of a unit-direction `MinimumTimeTransfer` by shooting
     from a guess of lambda(0) (solver units, e.g. `MinimumTimeSolution.costates[0]`) and the
     duration (s). jit-able; status SUCCESS when max |R| <= tol, else MAX_ITERATIONS,
-    STALLED (no decrease along the Newton step) or NONFINITE."""
+    STALLED (no decrease along the Newton step) or NONFINITE. A trial point whose integration
+    fails is backtracked from; if the line search ends on one, or the guess fails, the
+    status is the integrator's (`solve_ode`: MAX_ITERATIONS when out of steps, else
+    NONFINITE), never an exception. ValueError unless float64 is enabled."""
+    require_x64()
     n = problem.orbit.mean_motion
     params = min_time_ocp(problem, duration).params
     jac = jax.jacfwd(shooting_residual)
@@ -85,37 +98,42 @@ def min_time_shooting(problem, costate0, duration, max_iterations: int = 30,
         norm0 = jnp.max(jnp.abs(r))
 
         def ls_cond(t):
-            alpha, r_new, j = t
+            alpha, r_new, _, j = t
             return ~(jnp.max(jnp.abs(r_new)) < (1.0 - 1e-4 * alpha) * norm0) & (j < 30)
 
         def ls_body(t):
-            alpha, _, j = t
+            alpha, _, _, j = t
             alpha = 0.5 * alpha
-            return alpha, shooting_residual(p + alpha * step, params), j + 1
+            return (alpha, *_residual(p + alpha * step, params), j + 1)
 
-        r_full = shooting_residual(p + step, params)
-        alpha, r_new, _ = jax.lax.while_loop(ls_cond, ls_body, (1.0, r_full, 0))
+        alpha, r_new, flow, _ = jax.lax.while_loop(
+            ls_cond, ls_body, (1.0, *_residual(p + step, params), 0))
         better = jnp.max(jnp.abs(r_new)) < norm0
         finite = jnp.all(jnp.isfinite(r_new))
         ok = better & finite
         p_next = jnp.where(ok, p + alpha * step, p)
         r_next = jnp.where(ok, r_new, r)
         done = jnp.max(jnp.abs(r_next)) <= tol
+        nonfinite = jnp.where(flow == Status.SUCCESS, Status.NONFINITE, flow)
         status = jnp.select([done, ~finite, ~better, k + 1 >= max_iterations],
-                            [Status.SUCCESS, Status.NONFINITE, Status.STALLED,
+                            [Status.SUCCESS, nonfinite, Status.STALLED,
                              Status.MAX_ITERATIONS], -1).astype(jnp.int32)
         return p_next, r_next, k + 1, status
 
     p0 = jnp.concatenate([jnp.asarray(costate0, jnp.float64), jnp.atleast_1d(duration * n)])
-    r0 = shooting_residual(p0, params)
-    status0 = jnp.where(jnp.max(jnp.abs(r0)) <= tol, Status.SUCCESS, -1).astype(jnp.int32)
+    r0, flow0 = _residual(p0, params)
+    status0 = jnp.select([flow0 != Status.SUCCESS, jnp.max(jnp.abs(r0)) <= tol],
+                         [flow0, Status.SUCCESS], -1).astype(jnp.int32)
     p, r, k, status = jax.lax.while_loop(lambda s: s[-1] == -1, body, (p0, r0, 0, status0))
     return ShootingResult(duration=p[6] / n, costate0=p[:6], residual=jnp.max(jnp.abs(r)),
                           iterations=k, status=status)
 
 
 def flown_state(problem, result: ShootingResult):
-    """LVLH state (m, m/s) at the end of the shooting solution's flight."""
+    """LVLH state (m, m/s) at the end of the shooting solution's flight; NaN where the
+    integration failed. ValueError unless float64 is enabled."""
+    require_x64()
     params = min_time_ocp(problem, result.duration).params
-    y = _flow(params, params["x0"], result.costate0, result.duration * problem.orbit.mean_motion)
-    return y[:6] * state_scale(problem)
+    y, status = _flow(params, params["x0"], result.costate0,
+                      result.duration * problem.orbit.mean_motion)
+    return jnp.where(status == Status.SUCCESS, y[:6] * state_scale(problem), jnp.nan)

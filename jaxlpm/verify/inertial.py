@@ -14,15 +14,19 @@ interpolated direction).
 This is the check on the solvers, so it shares none of their integration choices: diffrax
 Tsit5 (Tsitouras' 5(4) pair) instead of Dopri8, rtol = atol = 1e-13 instead of 1e-12, fixed
 scales (10^7 m, sqrt(mu / 10^7 m), the initial mass) instead of the initial radius. Only the
-gravity model (`inertial_rhs`) is shared; tests/test_tan2011.py checks it against scipy's
+gravity model (`inertial_rhs`) and the non-raising diffrax call (`solve_ode`, given this
+module's solver and tolerances) are shared; tests/test_tan2011.py checks it against scipy's
 DOP853 on a NumPy right-hand side.
 """
 
 import diffrax
 import jax.numpy as jnp
 
+from .._validation import require_x64
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..dynamics.gravity import inertial_rhs
+from ..dynamics.propagation import solve_ode
+from ..status import Status
 from .propagate import ControlInterpolant
 
 LENGTH = 1.0e7            # m: the integrator's length scale
@@ -43,26 +47,25 @@ def fly(state, mass, t0, t1, control: ControlInterpolant = None, thrust=0.0, mas
     is None, else a burn of `thrust` (N) along control(t) with mass flow `mass_rate` (kg/s).
 
     Returns (states [r, v, m] (7,) at t1, or (len(ts), 7) at the times ts in [t0, t1], ok);
-    ok is False when the integration did not finish.
+    ok is False (never an exception) when the integration failed (`solve_ode`: step limit or
+    non-finite input or states). ValueError unless float64 is enabled.
     """
+    require_x64()
     y0 = jnp.concatenate([jnp.asarray(state, jnp.float64), jnp.atleast_1d(mass * 1.0)])
     speed = jnp.sqrt(mu / LENGTH)
     scale = jnp.concatenate([jnp.full(3, LENGTH), jnp.full(3, speed), y0[6:]])
 
-    def rhs(t, y, args):
+    def rhs(t, y):
         y = y * scale
         u = (jnp.zeros(3) if control is None else thrust / y[6] * control(t))
         rate = inertial_rhs(y[:6], u, mu, j2, r_eq)
         return jnp.concatenate([rate, -jnp.atleast_1d(mass_rate * 1.0)]) / scale
 
     saveat = diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts)
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(rhs), diffrax.Tsit5(), t0, t1, dt0=None, y0=y0 / scale, saveat=saveat,
-        stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL), max_steps=MAX_STEPS,
-        throw=False)
-    ys = sol.ys * scale
-    return (ys[-1] if ts is None else ys), sol.result == diffrax.RESULTS.successful
-
+    ys, status = solve_ode(rhs, y0 / scale, t0, t1, saveat, RTOL, ATOL, MAX_STEPS,
+                           solver=diffrax.Tsit5())
+    ys = ys * scale
+    return (ys[-1] if ts is None else ys), status == Status.SUCCESS
 
 
 def fly_finite_burn(problem, solution, n_save: int = 0):
@@ -70,8 +73,9 @@ def fly_finite_burn(problem, solution, n_save: int = 0):
     integrator: the coast of state0 from 0 to t_start, the burn of the renormalised
     interpolated direction for `duration` (thrust, mass flow mdot), the coast to t_f.
 
-    Returns (miss |r(t_f) - r_target| (m), final [r, v, m], ok, burn samples): with n_save > 0
-    the burn's (times (n_save,), states (n_save, 7)), else None.
+    Returns (miss |r(t_f) - r_target| (m), final [r, v, m], ok, burn samples): ok is False
+    when any of the three flights failed (`fly`); with n_save > 0 the burn's samples (times
+    (n_save,), states (n_save, 7)), else None.
     """
     ip = problem.intercept
     gravity = (ip.mu, ip.j2, ip.r_eq)

@@ -5,11 +5,12 @@ solution's nodes in the chief's true anomaly. It is packed into a fixed-size, ze
 `ControlInterpolant` so one compiled propagator serves every node count N.
 
 Integrator: diffrax Dopri8 (8th-order Dormand-Prince, adaptive, PID step control) at
-rtol = atol = 1e-12 (states scaled to O(1) internally). Models: (a) linearised elliptic LVLH
-equations in time; (b) nonlinear two-body (+ J2) chief and deputy, differenced in the chief's
-LVLH frame. The chief's anomaly is integrated beside the state (d/dt = |h| / r^2: the true
-anomaly of a Keplerian chief, the regularised anomaly of a J2 one), so no Kepler solve sits
-inside the right-hand side.
+rtol = atol = 1e-12 (states scaled to O(1) internally), through `solve_ode` (a failure is
+ok = False, never an exception). Models: (a) linearised elliptic LVLH equations in time;
+(b) nonlinear two-body (+ J2) chief and deputy, differenced in the chief's LVLH frame. The
+chief's anomaly is integrated beside the state (d/dt = |h| / r^2: the true anomaly of a
+Keplerian chief, the regularised anomaly of a J2 one), so no Kepler solve sits inside the
+right-hand side.
 """
 
 from dataclasses import dataclass
@@ -18,11 +19,14 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
+from .._validation import require_x64
 from ..collocation import barycentric_interpolate
 from ..constants import R_EARTH
 from ..dynamics import elliptic_lvlh_rhs, gravity_acceleration, relative_inertial_rhs
 from ..dynamics.chief import anomaly_rate
+from ..dynamics.propagation import solve_ode
 from ..orbits import elements_to_state, lvlh_to_relative_inertial, relative_inertial_to_lvlh
+from ..status import Status
 
 PAD_TO = 129          # largest node count one compiled propagator serves
 _FAR = 10.0           # padded support points sit outside [-1, 1] with zero weight
@@ -74,13 +78,11 @@ def control_interpolant(solution, pad_to: int = PAD_TO, magnitude=0.0) -> Contro
 
 
 def _integrate(rhs, y0, scale, t1, ts):
-    """Integrate dy/dt = rhs(t, y) from 0 to t1 in scaled variables y/scale; save at ts."""
-    term = diffrax.ODETerm(lambda t, y, args: rhs(t, y * scale) / scale)
-    sol = diffrax.diffeqsolve(
-        term, diffrax.Dopri8(), 0.0, t1, dt0=None, y0=y0 / scale,
-        stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL),
-        saveat=diffrax.SaveAt(ts=ts), max_steps=200_000)
-    return sol.ys * scale, sol.result == diffrax.RESULTS.successful
+    """Integrate dy/dt = rhs(t, y) from 0 to t1 in scaled variables y/scale; save at ts.
+    Returns (ys, ok); ok False when `solve_ode` failed (never raises)."""
+    ys, status = solve_ode(lambda t, y: rhs(t, y * scale) / scale, y0 / scale, 0.0, t1,
+                           diffrax.SaveAt(ts=ts), RTOL, ATOL, 200_000)
+    return ys * scale, status == Status.SUCCESS
 
 
 def _save_times(duration, n_save):
@@ -91,7 +93,10 @@ def propagate_linear(orbit, x0, duration, control: ControlInterpolant, n_save: i
     """Fly u through the linearised elliptic LVLH equations in time (Yamanaka-Ankersen eq. 2).
 
     Returns (times (n_save,), LVLH states (n_save, 6), ok). x0 in m, m/s at the orbit's epoch.
+    ok is False (never an exception) when the integration failed: step limit or non-finite
+    input (then the states are zeros or non-finite). ValueError unless float64 is enabled.
     """
+    require_x64()
     e, k2, p, mu = orbit.e, orbit.k2, orbit.p, orbit.mu
 
     def rhs(t, y):
@@ -114,8 +119,9 @@ def propagate_nonlinear(orbit, x0, duration, control: ControlInterpolant, n_save
     The control's anomaly is the chief's regularised anomaly, d/dt = |h| / r^2 (the true
     anomaly of a Keplerian chief). The chief starts on `orbit`'s state at its epoch.
 
-    Returns (times (n_save,), LVLH states (n_save, 6), ok).
+    Returns (times (n_save,), LVLH states (n_save, 6), ok), ok as in `propagate_linear`.
     """
+    require_x64()
     mu = orbit.mu
     rc, vc = elements_to_state(orbit)
     a_chief = gravity_acceleration(rc, mu, j2, r_eq)
