@@ -1,5 +1,7 @@
 """Input checks at the Python boundary (ValueError) and their traced counterparts (status)."""
 
+import dataclasses
+
 import jax
 import numpy as np
 
@@ -29,3 +31,17 @@ def check_shape(name: str, value, shape: tuple) -> None:
     got = np.shape(value)
     if got != shape:
         raise ValueError(f"{name} must have shape {shape}, got {got}")
+
+
+def coerce_sequences(obj) -> None:
+    """In a frozen dataclass's __post_init__: turn its array fields given as Python lists or
+    tuples into float64 arrays (a list would otherwise become a pytree of scalar leaves).
+    Static fields, arrays and tracers are left as they are."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if not f.metadata.get("static") and isinstance(value, (list, tuple)):
+            try:
+                arr = np.asarray(value, dtype=np.float64)
+            except (TypeError, ValueError) as err:
+                raise ValueError(f"{f.name} must be numeric, got {value!r:.80}") from err
+            object.__setattr__(obj, f.name, arr)

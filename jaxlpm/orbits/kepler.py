@@ -5,6 +5,7 @@ in which the elements are defined. True anomaly and time are continuous: a true 
 6*pi is three revolutions after f = 0, never wrapped.
 """
 
+import functools
 from dataclasses import dataclass, field, replace
 
 import jax
@@ -12,6 +13,8 @@ import jax.numpy as jnp
 
 from ..constants import MU_EARTH
 from ..implicit import root
+
+ANGLES = ("i", "raan", "argp", "f0")
 
 
 @jax.tree_util.register_dataclass
@@ -32,6 +35,43 @@ class KeplerOrbit:
 
     def replace(self, **kwargs) -> "KeplerOrbit":
         return replace(self, **kwargs)
+
+    def checks(self):
+        """The orbit's validity rules, written once: (field, in-graph flag, what is allowed).
+
+        `validate` raises on the first that fails (concrete input); `validity` is their
+        conjunction (traced input: status INVALID_INPUT).
+        """
+        finite = {n: jnp.isfinite(getattr(self, n)) for n in ANGLES}
+        return [("orbit.a", jnp.isfinite(self.a) & (self.a > 0.0),
+                 "a positive, finite semi-major axis in m"),
+                ("orbit.e", jnp.isfinite(self.e) & (self.e >= 0.0) & (self.e < 1.0),
+                 "an eccentricity in [0, 1) (elliptic chief)"),
+                ("orbit.mu", jnp.isfinite(self.mu) & (self.mu > 0.0),
+                 "a positive, finite gravitational parameter in m^3/s^2"),
+                *[(f"orbit.{n}", ok, "a finite angle in rad") for n, ok in finite.items()]]
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first invalid field (concrete, scalar fields only)."""
+        for name in ("a", "e", *ANGLES, "mu"):
+            shape = jnp.shape(getattr(self, name))
+            if shape != ():
+                raise ValueError(f"orbit.{name} must be a scalar, got shape {shape}")
+        for name, ok, allowed in self.checks():
+            if not bool(ok):
+                raise ValueError(f"{name} must be {allowed}, got {getattr(self, name[6:])}")
+
+    def validity(self):
+        """In-graph validity flag (the checks of `validate`), for traced input."""
+        flags = [ok for _, ok, _ in self.checks()]
+        return functools.reduce(jnp.logical_and, flags)
+
+    def sanitized(self, valid):
+        """A copy with a harmless circular orbit where `valid` is False (batched invalid
+        members compute finite numbers, which the solvers then zero)."""
+        pick = lambda v, safe: jnp.where(valid, v, safe)  # noqa: E731
+        return self.replace(a=pick(self.a, 7.0e6), e=pick(self.e, 0.0), mu=pick(self.mu, MU_EARTH),
+                            **{n: pick(getattr(self, n), 0.0) for n in ANGLES})
 
     @property
     def p(self):

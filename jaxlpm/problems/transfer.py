@@ -15,13 +15,14 @@ function); `thrust_axes` is static: which LVLH thrust channels exist (a removed 
 make the problem uncontrollable, which the laws report as status SINGULAR).
 """
 
+import functools
 from dataclasses import dataclass, field, replace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_finite, check_shape, is_concrete
+from .._validation import check_shape, coerce_sequences, is_concrete
 from ..constants import J2_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
 
@@ -40,62 +41,77 @@ class EnergyOptimalTransfer:
     j2: jax.Array = J2_EARTH
     r_eq: jax.Array = R_EARTH
 
+    def __post_init__(self):
+        coerce_sequences(self)
+
     @classmethod
     def from_revolutions(cls, orbit, x0, xf, revolutions, thrust_axes=(True, True, True),
                          model="linear"):
         """Transfer lasting `revolutions` chief orbital periods (duration = revolutions * 2 pi/n)."""
+        if is_concrete(orbit):
+            orbit.validate()           # the period needs a > 0 and mu > 0
         return cls(orbit, x0, xf, revolutions * orbit.period, thrust_axes, model)
 
     def replace(self, **kwargs) -> "EnergyOptimalTransfer":
         return replace(self, **kwargs)
 
+    def checks(self):
+        """The problem's validity rules, written once: (field, in-graph flag, what is allowed).
+        Concrete input raises on the first failure (`validate`); traced input gets status
+        INVALID_INPUT (`validity`). The nonlinear models fly the chief on its orbit, so they
+        need its perigee above the surface (r_p = a (1 - e) > r_eq); the linear model is a
+        local expansion that does not care."""
+        o = self.orbit
+        rules = [*o.checks(),
+                 ("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
+                 ("xf", jnp.all(jnp.isfinite(self.xf)), "finite (m, m/s)"),
+                 ("duration", jnp.isfinite(self.duration) & (self.duration > 0.0),
+                  "a positive, finite duration in s"),
+                 ("j2", jnp.isfinite(self.j2), "finite"),
+                 ("r_eq", jnp.isfinite(self.r_eq) & (self.r_eq > 0.0),
+                  "a positive equatorial radius in m")]
+        if self.model != "linear":
+            rules.append(("orbit", perigee_above_surface(o.a, o.e, self.r_eq),
+                          f"an orbit whose perigee a (1 - e) is above r_eq on the "
+                          f"{self.model!r} model"))
+        return rules
+
     def validate(self) -> None:
         """Raise ValueError naming the problem and what is allowed (concrete inputs only)."""
-        check_shape("x0", self.x0, (6,))
-        check_shape("xf", self.xf, (6,))
-        for name in ("a", "e", "i", "raan", "argp", "f0", "mu"):
-            check_shape(f"orbit.{name}", getattr(self.orbit, name), ())
-        check_shape("duration", self.duration, ())
-        check_finite("x0", self.x0)
-        check_finite("xf", self.xf)
-        e = float(check_finite("orbit.e", self.orbit.e))
-        if not 0.0 <= e < 1.0:
-            raise ValueError(f"orbit.e must be in [0, 1) (elliptic chief), got {e}")
-        if not float(check_finite("orbit.a", self.orbit.a)) > 0.0:
-            raise ValueError(f"orbit.a must be a positive semi-major axis in m, got {self.orbit.a}")
-        if not float(check_finite("duration", self.duration)) > 0.0:
-            raise ValueError(f"duration must be positive (s), got {self.duration}")
         if self.model not in MODELS:
             raise ValueError(f"model must be one of {MODELS}, got {self.model!r}")
-        check_shape("j2", self.j2, ())
-        check_shape("r_eq", self.r_eq, ())
-        check_finite("j2", self.j2)
-        if not float(check_finite("r_eq", self.r_eq)) > 0.0:
-            raise ValueError(f"r_eq must be a positive equatorial radius in m, got {self.r_eq}")
         axes = self.thrust_axes
         if len(axes) != 3 or not all(isinstance(a, (bool, np.bool_)) for a in axes):
             raise ValueError(f"thrust_axes must be three booleans (x, y, z), got {axes!r}")
+        for name, shape in (("x0", (6,)), ("xf", (6,)), ("duration", ()), ("j2", ()),
+                            ("r_eq", ())):
+            check_shape(name, getattr(self, name), shape)
+        self.orbit.validate()
+        for name, ok, allowed in self.checks():
+            if not bool(ok):
+                value = self.orbit if name == "orbit" else getattr(self, name.split(".")[0])
+                raise ValueError(f"{name} must be {allowed}, got {value}")
 
     def validity(self):
-        """In-graph validity flag for traced inputs (the same checks as `validate`)."""
-        o = self.orbit
-        finite = jnp.all(jnp.isfinite(self.x0)) & jnp.all(jnp.isfinite(self.xf))
-        finite &= jnp.isfinite(o.e) & jnp.isfinite(o.a) & jnp.isfinite(self.duration)
-        finite &= jnp.isfinite(self.j2) & jnp.isfinite(self.r_eq)
-        return (finite & (o.e >= 0.0) & (o.e < 1.0) & (o.a > 0.0) & (self.duration > 0.0)
-                & (self.r_eq > 0.0))
+        """In-graph validity flag for traced inputs (the checks of `validate`)."""
+        return functools.reduce(jnp.logical_and, [ok for _, ok, _ in self.checks()])
 
     def sanitized(self, valid):
         """A copy whose leaves are replaced by a harmless problem where `valid` is False, so an
         invalid member of a batch computes finite numbers (then zeroed) instead of NaNs."""
-        o = self.orbit
-        safe_orbit = o.replace(e=jnp.where(valid, o.e, 0.0), a=jnp.where(valid, o.a, 7.0e6))
         return self.replace(
-            orbit=safe_orbit,
+            orbit=self.orbit.sanitized(valid),
             x0=jnp.where(valid, self.x0, jnp.array([1.0, 0, 0, 0, 0, 0])),
             xf=jnp.where(valid, self.xf, 0.0),
             duration=jnp.where(valid, self.duration, 1000.0),
+            j2=jnp.where(valid, self.j2, 0.0),
+            r_eq=jnp.where(valid, self.r_eq, R_EARTH),
         )
+
+
+def perigee_above_surface(a, e, r_eq=R_EARTH):
+    """True where the chief's perigee radius a (1 - e) exceeds the body's radius r_eq (m)."""
+    return a * (1.0 - e) > r_eq
 
 
 def check_problem(problem: EnergyOptimalTransfer) -> None:

@@ -120,7 +120,17 @@ def _least_squares_multipliers(z, ocp, grid):
     default; Nocedal & Wright eq. 18.21), so the first Hessian sees the constraints' curvature."""
     g = jax.grad(objective)(z, ocp, grid)
     A = equality_jacobian(z, ocp, grid)
-    return -jax.scipy.linalg.solve(A @ A.T, A @ g, assume_a="pos")
+    return -jax.scipy.linalg.cho_solve(_gram_factor(A), A @ g)
+
+
+def _gram_factor(A):
+    """Cholesky factor of A A^T + eps I, eps = 1e-14 max diag(A A^T): exact to round-off when A
+    has full row rank; finite when the constraints are redundant but consistent (a thrust
+    axis removed: the defects and boundary conditions of an unactuated axis overlap), where
+    it gives the least-norm solutions of the compatible systems it is used for."""
+    AAt = A @ A.T
+    eps = 1e-14 * jnp.max(jnp.diagonal(AAt))
+    return jax.scipy.linalg.cho_factor(AAt + eps * jnp.eye(A.shape[0], dtype=A.dtype))
 
 
 class DenseKKT:
@@ -133,7 +143,7 @@ class DenseKKT:
 
     def prepare(self, z, lam):
         A = equality_jacobian(z, self.ocp, self.grid)
-        return A, jax.scipy.linalg.cho_factor(A @ A.T)
+        return A, _gram_factor(A)
 
     def hessian(self, prep, z, lam):
         return lagrangian_hessian(z, lam, self.ocp, self.grid)

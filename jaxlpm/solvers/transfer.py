@@ -13,8 +13,8 @@ import jax.numpy as jnp
 
 from ..problems.relative import (control_scale, cost_scale, lvlh_state, model_state,
                                  transfer_ocp)
-from ..problems.transcription import (collocated_rows, collocation_s, costates, objective,
-                                      pack, state_tau, unpack)
+from ..problems.transcription import (collocated_rows, collocation_s, costates, equality,
+                                      objective, pack, state_tau, unpack)
 from ..linalg import sequential_when_batched
 from ..status import Status
 from .lq import kkt_law
@@ -27,21 +27,29 @@ def _warm_start(problem, ocp, grid):
     """z0 from the linear model's KKT solution on the same grid, mapped node by node (same
     tau) to the model's state. On LGL grids that is Mei 2010's KKT law itself (null-space QR,
     milliseconds); on LG and LGR grids the linear transcription's QP, solved by one dense
-    Newton-KKT step."""
+    Newton-KKT step. Also returns whether that linear problem is singular: its boundary
+    states are not reachable with the thrust axes given (the law's status SINGULAR; on LG and
+    LGR a step that leaves the linear constraints unmet)."""
     linear = problem.replace(model="linear")
     if grid.scheme == "LGL":
         law = kkt_law(linear, grid)
         X_lvlh, U_si = law.node_states, law.node_controls
+        singular = law.status == Status.SINGULAR
     else:
         ocp_lin, _, _ = transfer_ocp(linear, grid)
         n_rows = state_tau(grid).shape[0]
         zero = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp_lin.sf,
                     ocp_lin)
-        X_th, U, _ = unpack(newton_step(ocp_lin, grid, zero)[0], ocp_lin, grid)
+        z_lin = newton_step(ocp_lin, grid, zero)[0]
+        # the scaled states are O(1): a QP step that misses its linear constraints by more
+        # than round-off found no feasible point
+        singular = ~(jnp.max(jnp.abs(equality(z_lin, ocp_lin, grid))) <= 1e-6)
+        X_th, U, _ = unpack(z_lin, ocp_lin, grid)
         X_lvlh = jax.vmap(lambda x, s: lvlh_state(linear, x, s))(X_th, _state_s(ocp_lin, grid))
         U_si = U * control_scale(linear)
     X = jax.vmap(lambda x, s: model_state(problem, x, s))(X_lvlh, _state_s(ocp, grid))
-    return pack(X, U_si / control_scale(problem), ocp.sf, ocp)
+    z0 = pack(X, U_si / control_scale(problem), ocp.sf, ocp)
+    return jnp.where(singular, jnp.zeros_like(z0), z0), singular
 
 
 _sequential_warm_start = sequential_when_batched(_warm_start)
@@ -87,10 +95,12 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     ocp, chief, ok = transfer_ocp(problem, grid)
     state_s = _state_s(ocp, grid)
     if warm_start:       # an initial guess: not differentiated, member by member under vmap
-        z0 = _sequential_warm_start(*jax.lax.stop_gradient((problem, ocp)), grid)
+        z0, linear_singular = _sequential_warm_start(*jax.lax.stop_gradient((problem, ocp)),
+                                                     grid)
     else:
         n_rows = state_tau(grid).shape[0]
         z0 = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp.sf, ocp)
+        linear_singular = jnp.array(False)
     homotopy = None if problem.model == "linear" else separation_homotopy
     if linear_algebra not in LINEAR_ALGEBRA:
         raise ValueError(f"linear_algebra must be one of {LINEAR_ALGEBRA}, got "
@@ -103,7 +113,11 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy, linear_algebra=la)
     X, U, _ = unpack(result.z, ocp, grid)
     states = jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, state_s)
-    status = jnp.where(valid, jnp.where(ok, result.status, Status.NONFINITE),
+    # a failed solve whose linearisation cannot reach the target with the thrust axes given
+    # is reported as what it is: SINGULAR (uncontrollable), not a solver failure
+    status = jnp.where(linear_singular & (result.status != Status.SUCCESS), Status.SINGULAR,
+                       result.status)
+    status = jnp.where(valid, jnp.where(ok, status, Status.NONFINITE),
                        Status.INVALID_INPUT).astype(jnp.int32)
     cost = cost_scale(problem) * objective(result.z, ocp, grid)
 
