@@ -57,8 +57,8 @@ from tqdm import tqdm
 
 from .._validation import require_x64
 from ..collocation import lgl
-from ..constants import R_EARTH
 from ..problems import EnergyOptimalTransfer
+from ..problems.transfer import perigee_above_surface
 from ..solvers import solve
 from ..status import Status
 
@@ -144,7 +144,7 @@ def transfer_builder(base: EnergyOptimalTransfer, hold: str = "perigee") -> Call
     return build
 
 
-def _check_transfer_parameters(base, hold):
+def _check_transfer_parameters(base, hold, model):
     def validate(params):
         unknown = sorted(set(params) - set(TRANSFER_PARAMETERS))
         if unknown:
@@ -164,11 +164,11 @@ def _check_transfer_parameters(base, hold):
             o = base.orbit
             a = (np.asarray(o.a * (1.0 - o.e)) / (1.0 - e) if hold == "perigee"
                  else np.full_like(e, float(o.a)))
-        perigee = a * (1.0 - e)
-        if np.any(perigee <= R_EARTH):
-            raise ValueError(f"the chief's perigee radius a (1 - e) must exceed R_EARTH = "
-                             f"{R_EARTH} m (hold={hold!r}); got a minimum of {perigee.min()} m; "
-                             f"lower e or hold the perigee radius")
+        if model != "linear" and not np.all(perigee_above_surface(a, e, float(base.r_eq))):
+            raise ValueError(f"the {model!r} model needs the chief's perigee radius "
+                             f"a (1 - e) above r_eq = {float(base.r_eq)} m (hold={hold!r}); got "
+                             f"a minimum of {np.min(a * (1.0 - e))} m; lower e or hold the "
+                             f"perigee radius")
         for name in ("revolutions", "duration"):
             if name in params and not np.all(params[name] > 0.0):
                 raise ValueError(f"{name} must be positive, got a minimum of "
@@ -291,7 +291,7 @@ def transfer_family(name: str, base: EnergyOptimalTransfer, method: str = "kkt",
                + (", iterations" if method == "newton" else ""))
     return Family(name=name, build=transfer_builder(base, hold), solve=transfer_record(method),
                   grid=lambda N: lgl(N + 1), definition=definition, min_N=3,
-                  validate=_check_transfer_parameters(base, hold),
+                  validate=_check_transfer_parameters(base, hold, TRANSFER_METHODS.get(method)),
                   cpu_batch_size=None if method == "stm" else 1)
 
 

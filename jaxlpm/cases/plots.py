@@ -53,9 +53,9 @@ def plot_convergence(rows, path):
     """Cost and linear-model terminal error against N for both laws."""
     N = [r["N"] for r in rows]
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-    ref = rows[-1]["J_kkt"]
+    ref = rows[-1]["J_kkt"]          # the finest grid is the reference: not plotted against itself
     for law in ("stm", "kkt"):
-        a1.semilogy(N, [abs(r[f"J_{law}"] - ref) / ref + 1e-17 for r in rows], "o-",
+        a1.semilogy(N[:-1], [abs(r[f"J_{law}"] - ref) / ref for r in rows[:-1]], "o-",
                     label=law.upper())
         a2.semilogy(N, [r[f"terminal_error_linear_{law}"][0] for r in rows], "o-",
                     label=law.upper())
@@ -134,17 +134,22 @@ def plot_mesh_study(convergence, schemes, path):
     """Minimum time against the number of points (one scheme) and across schemes: |t_f(K) -
     t_f*| against the grid-independent reference (rows' "tf_error"), and the flown terminal
     miss."""
-    K = [r["K"] for r in convergence]
+    ok = [r for r in convergence if r["status"] == "SUCCESS"]
+    failed = [r for r in convergence if r["status"] != "SUCCESS"]
+    K = [r["K"] for r in ok]
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-    a1.semilogy(K, [abs(r["tf_error"]) + 1e-16 for r in convergence], "o-",
+    a1.semilogy(K, [abs(r["tf_error"]) + 1e-16 for r in ok], "o-",
                 label=f"{convergence[0].get('scheme', 'LG')}")
     for r in schemes:
         a1.semilogy([r["K"]], [abs(r["tf_error"]) + 1e-16], "s", label=f"{r['scheme']} K = "
                     f"{r['K']}")
+    for r in failed:          # not converged: marked apart and not joined to the converged
+        for a, y in ((a1, abs(r["tf_error"]) + 1e-16), (a2, r["terminal_miss"][0])):
+            a.semilogy([r["K"]], [y], "rx", ms=9, label=f"K = {r['K']}: {r['status']}")
     a1.set(xlabel="K (points)", ylabel="|t_f - t_f*| (s)",
            title="minimum time against the shooting optimum t_f*")
-    a2.semilogy(K, [r["terminal_miss"][0] for r in convergence], "o-", label="position (m)")
-    a2.semilogy(K, [r["terminal_miss"][1] for r in convergence], "s-", label="velocity (m/s)")
+    a2.semilogy(K, [r["terminal_miss"][0] for r in ok], "o-", label="position (m)")
+    a2.semilogy(K, [r["terminal_miss"][1] for r in ok], "s-", label="velocity (m/s)")
     a2.set(xlabel="K (points)", title="terminal miss of the flown direction (CW)")
     for a in (a1, a2):
         a.grid(alpha=0.3, which="both")

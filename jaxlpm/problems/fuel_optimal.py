@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 import jax
 import jax.numpy as jnp
 
-from .._validation import check_finite, check_shape, is_concrete
+from .._validation import check_finite, check_shape, coerce_sequences, is_concrete
 from ..constants import G0
 from ..dynamics import hcw_matrix
 from ..linalg import dense_solve
@@ -49,6 +49,9 @@ class FuelOptimalTransfer:
     mass: jax.Array
     isp: jax.Array
 
+    def __post_init__(self):
+        coerce_sequences(self)
+
     def replace(self, **kwargs) -> "FuelOptimalTransfer":
         return replace(self, **kwargs)
 
@@ -63,11 +66,10 @@ class FuelOptimalTransfer:
         check_shape("xf", self.xf, (6,))
         check_finite("x0", self.x0)
         check_finite("xf", self.xf)
-        if float(check_finite("orbit.e", self.orbit.e)) != 0.0:
+        self.orbit.validate()
+        if float(self.orbit.e) != 0.0:
             raise ValueError(f"fuel-optimal transfers use the HCW equations: the chief must be "
                              f"circular (orbit.e = 0), got e = {self.orbit.e}")
-        if not float(check_finite("orbit.a", self.orbit.a)) > 0.0:
-            raise ValueError(f"orbit.a must be a positive radius in m, got {self.orbit.a}")
         for name, unit in (("duration", "s"), ("thrust_max", "N"), ("mass", "kg"),
                            ("isp", "s")):
             value = getattr(self, name)
@@ -80,10 +82,9 @@ class FuelOptimalTransfer:
     def validity(self):
         """In-graph validity flag for traced inputs (the checks of `validate`)."""
         o = self.orbit
-        leaves = [self.x0, self.xf, o.a, o.e, self.duration, self.thrust_max, self.mass,
-                  self.isp]
+        leaves = [self.x0, self.xf, self.duration, self.thrust_max, self.mass, self.isp]
         finite = jnp.all(jnp.stack([jnp.all(jnp.isfinite(v)) for v in leaves]))
-        return (finite & (o.e == 0.0) & (o.a > 0.0) & (self.duration > 0.0)
+        return (finite & o.validity() & (o.e == 0.0) & (self.duration > 0.0)
                 & (self.thrust_max > 0.0) & (self.mass > 0.0) & (self.isp > 0.0)
                 & jnp.any(self.x0 != self.xf))
 
@@ -92,7 +93,7 @@ class FuelOptimalTransfer:
         o = self.orbit
         pick = lambda v, safe: jnp.where(valid, v, safe)  # noqa: E731
         return self.replace(
-            orbit=o.replace(e=pick(o.e, 0.0), a=pick(o.a, 7.0e6)),
+            orbit=o.sanitized(valid),
             x0=pick(self.x0, 0.0),
             xf=pick(self.xf, jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0])),
             duration=pick(self.duration, 5000.0), thrust_max=pick(self.thrust_max, 1.0),
