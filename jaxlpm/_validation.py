@@ -20,15 +20,31 @@ def is_concrete(*xs) -> bool:
     return not any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(xs))
 
 
+def real_array(name: str, value):
+    """`value` as a float64 NumPy array (a tracer is returned as it is, its dtype checked);
+    ValueError naming `name` unless it is real numbers (ints or floats, not bool, complex,
+    strings or objects)."""
+    dtype = value.dtype if isinstance(value, jax.core.Tracer) else None
+    if dtype is None:
+        try:
+            arr = np.asarray(value)
+        except (TypeError, ValueError):
+            arr = np.asarray(None)
+        dtype = arr.dtype
+    if dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be real numbers (int or float), got {value!r:.80}")
+    return value if isinstance(value, jax.core.Tracer) else arr.astype(np.float64)
+
+
 def check_finite(name: str, value) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float64)
+    arr = real_array(name, value)
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got {arr!r}")
     return arr
 
 
 def check_shape(name: str, value, shape: tuple) -> None:
-    got = np.shape(value)
+    got = np.shape(real_array(name, value))
     if got != shape:
         raise ValueError(f"{name} must have shape {shape}, got {got}")
 

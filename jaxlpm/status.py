@@ -28,8 +28,9 @@ _MESSAGES = {
         "a removed control channel, or boundary states the controls cannot reach)"
     ),
     Status.INVALID_INPUT: (
-        "invalid input under jit/vmap: e outside [0, 1), non-positive duration or semi-major "
-        "axis, or non-finite states (outputs are zeroed)"
+        "invalid input under jit/vmap: a field that raises ValueError when concrete (e "
+        "outside [0, 1), a non-positive a, mu or duration, a non-finite state or angle, a "
+        "perigee below the surface on a nonlinear model, ...); outputs are zeroed"
     ),
     Status.NONFINITE: "the solve produced non-finite numbers",
     Status.MAX_ITERATIONS: "the iteration limit was reached before convergence",

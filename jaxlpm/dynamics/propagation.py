@@ -13,7 +13,9 @@ exactly two-body. SI units: m, m/s, s.
 import diffrax
 import jax
 import jax.numpy as jnp
+import numpy as np
 
+from .._validation import check_finite, check_shape, is_concrete, require_x64
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..status import Status
 from .gravity import inertial_rhs
@@ -59,13 +61,32 @@ def _scales(state, mu):
     return jnp.concatenate([jnp.full(3, length), jnp.full(3, jnp.sqrt(mu / length))])
 
 
+def _check_propagation(state, duration, mu, j2, r_eq):
+    require_x64()
+    check_shape("state", state, (6,))
+    for name, value in (("duration", duration), ("mu", mu), ("j2", j2), ("r_eq", r_eq)):
+        check_shape(name, value, ())
+    if not is_concrete(state, duration, mu, j2, r_eq):
+        return
+    r = check_finite("state", state)[:3]
+    for name, value in (("duration", duration), ("j2", j2)):
+        check_finite(name, value)
+    if not np.linalg.norm(r) > 0.0:
+        raise ValueError("state must have a non-zero position (m)")
+    for name, value in (("mu", mu), ("r_eq", r_eq)):
+        if not float(check_finite(name, value)) > 0.0:
+            raise ValueError(f"{name} must be positive, got {value}")
+
+
 def propagate(state, duration, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None):
     """Coast `state` = [r (m), v (m/s)] for `duration` (s, > 0; negative integrates backwards).
 
     Returns (final state (6,), ok) or, with `ts` (times in [0, duration], s), (states
     (len(ts), 6), ok); ok is False when the integration failed (`solve_ode`: step limit,
-    non-finite input or states); never raises.
+    non-finite input or states). Concrete bad input (shapes, types, non-finite values, a
+    zero position, mu or r_eq <= 0) raises ValueError; traced bad input gives ok = False.
     """
+    _check_propagation(state, duration, mu, j2, r_eq)
     state = jnp.asarray(state, dtype=jnp.float64)
     scale = _scales(state, mu)
     saveat = diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts)

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 import jax
 import jax.numpy as jnp
 
+from .._validation import check_shape
 from ..constants import MU_EARTH
 from ..implicit import root
 
@@ -51,12 +52,14 @@ class KeplerOrbit:
                  "a positive, finite gravitational parameter in m^3/s^2"),
                 *[(f"orbit.{n}", ok, "a finite angle in rad") for n, ok in finite.items()]]
 
-    def validate(self) -> None:
-        """Raise ValueError naming the first invalid field (concrete, scalar fields only)."""
+    def validate_static(self) -> None:
+        """Raise ValueError unless every field is a real scalar (known at trace time too)."""
         for name in ("a", "e", *ANGLES, "mu"):
-            shape = jnp.shape(getattr(self, name))
-            if shape != ():
-                raise ValueError(f"orbit.{name} must be a scalar, got shape {shape}")
+            check_shape(f"orbit.{name}", getattr(self, name), ())
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first invalid field (concrete input)."""
+        self.validate_static()
         for name, ok, allowed in self.checks():
             if not bool(ok):
                 raise ValueError(f"{name} must be {allowed}, got {getattr(self, name[6:])}")

@@ -76,8 +76,9 @@ class EnergyOptimalTransfer:
                           f"{self.model!r} model"))
         return rules
 
-    def validate(self) -> None:
-        """Raise ValueError naming the problem and what is allowed (concrete inputs only)."""
+    def validate_static(self) -> None:
+        """Raise ValueError for what is known at trace time too: model, thrust axes, the
+        fields' types and shapes (x0, xf (6,); every other field a scalar)."""
         if self.model not in MODELS:
             raise ValueError(f"model must be one of {MODELS}, got {self.model!r}")
         axes = self.thrust_axes
@@ -86,10 +87,15 @@ class EnergyOptimalTransfer:
         for name, shape in (("x0", (6,)), ("xf", (6,)), ("duration", ()), ("j2", ()),
                             ("r_eq", ())):
             check_shape(name, getattr(self, name), shape)
-        self.orbit.validate()
+        self.orbit.validate_static()
+
+    def validate(self) -> None:
+        """Raise ValueError naming the problem and what is allowed (concrete inputs only)."""
+        self.validate_static()
         for name, ok, allowed in self.checks():
             if not bool(ok):
-                value = self.orbit if name == "orbit" else getattr(self, name.split(".")[0])
+                owner, _, attr = name.rpartition(".")
+                value = getattr(self.orbit if owner else self, attr)
                 raise ValueError(f"{name} must be {allowed}, got {value}")
 
     def validity(self):
@@ -115,6 +121,12 @@ def perigee_above_surface(a, e, r_eq=R_EARTH):
 
 
 def check_problem(problem: EnergyOptimalTransfer) -> None:
-    """Validate at the Python boundary when the inputs are concrete."""
+    """Validate at the Python boundary: everything when the inputs are concrete, the static
+    part (types, shapes, model) when they are traced."""
+    if not isinstance(problem, EnergyOptimalTransfer):
+        raise ValueError(f"problem must be an EnergyOptimalTransfer, got "
+                         f"{type(problem).__name__}")
     if is_concrete(problem):
         problem.validate()
+    else:
+        problem.validate_static()
