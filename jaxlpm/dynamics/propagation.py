@@ -94,4 +94,6 @@ def propagate(state, duration, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None):
         lambda t, y: inertial_rhs(y * scale, jnp.zeros(3), mu, j2, r_eq) / scale,
         state / scale, 0.0, duration, saveat, RTOL, ATOL, MAX_STEPS)
     ys = ys * scale
-    return (ys[-1] if ts is None else ys), status == Status.SUCCESS
+    valid = (jnp.isfinite(mu) & (mu > 0.0) & jnp.isfinite(r_eq) & (r_eq > 0.0)
+             & jnp.isfinite(j2))            # the checks of `_check_propagation`, traced
+    return (ys[-1] if ts is None else ys), (status == Status.SUCCESS) & valid

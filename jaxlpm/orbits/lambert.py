@@ -54,7 +54,7 @@ T_RTOL = 1e-14               # |T(x) - T| <= T_RTOL T ends it too (~45 eps: T's 
 class LambertSolution:
     """Velocities v1 at r1 and v2 at r2 (m/s, inertial), Izzo's x, the iteration count and the
     status (`Status` code): SUCCESS; INVALID_INPUT (non-finite or zero positions, tof <= 0,
-    mu <= 0, revolutions < 0); SINGULAR (transfer angle within DEGENERATE_ANGLE of 0 or pi: the
+    mu <= 0 or non-finite, revolutions < 0); NONFINITE (velocities overflow); SINGULAR (transfer angle within DEGENERATE_ANGLE of 0 or pi: the
     transfer plane is undefined); INFEASIBLE (M >= 1 and tof below the M-revolution minimum
     time T_min(M): no such orbit); MAX_ITERATIONS. Failed solves return v1 = v2 = 0."""
 
@@ -240,7 +240,7 @@ def _lambert(r1, r2, tof, revolutions, branch, prograde, mu):
     revs = jnp.asarray(revolutions).astype(r1.dtype)
     right = jnp.asarray(branch) == 1
     valid = (jnp.all(jnp.isfinite(r1)) & jnp.all(jnp.isfinite(r2)) & jnp.isfinite(tof)
-             & (tof > 0.0) & (mu > 0.0) & (jnp.linalg.norm(r1) > 0.0)
+             & (tof > 0.0) & jnp.isfinite(mu) & (mu > 0.0) & (jnp.linalg.norm(r1) > 0.0)
              & (jnp.linalg.norm(r2) > 0.0) & (revs >= 0.0))
     # safe stand-ins keep every branch finite (and its gradient) when the input is invalid
     r1 = jnp.where(valid, r1, jnp.array([1.0, 0.0, 0.0]))
@@ -265,9 +265,11 @@ def _lambert(r1, r2, tof, revolutions, branch, prograde, mu):
     vt = gamma * sigma * (y + lam * x)
     v1 = vr1 * ir1 + vt / r1n * it1
     v2 = vr2 * ir2 + vt / r2n * it2
-    status = jnp.select([~valid, ~planar, ~feasible, ~ok],
+    finite = jnp.all(jnp.isfinite(v1)) & jnp.all(jnp.isfinite(v2)) & jnp.isfinite(x)
+    status = jnp.select([~valid, ~planar, ~feasible, ~ok, ~finite],
                         [Status.INVALID_INPUT, Status.SINGULAR, Status.INFEASIBLE,
-                         Status.MAX_ITERATIONS], Status.SUCCESS).astype(jnp.int32)
+                         Status.MAX_ITERATIONS, Status.NONFINITE],
+                        Status.SUCCESS).astype(jnp.int32)
     keep = status == Status.SUCCESS
     return LambertSolution(v1=jnp.where(keep, v1, 0.0), v2=jnp.where(keep, v2, 0.0),
                            x=x, iterations=it + jnp.where(revs > 0, it_min, 0), status=status)
@@ -279,6 +281,7 @@ def _check(r1, r2, tof, revolutions, branch, mu):
         if np.linalg.norm(check_finite(name, r)) == 0.0:
             raise ValueError(f"{name} must be a non-zero position vector (m), got {r!r}")
     for name, val in (("tof", tof), ("mu", mu)):
+        check_shape(name, val, ())
         v = float(check_finite(name, val))
         if v <= 0.0:
             raise ValueError(f"{name} must be positive, got {v}")
