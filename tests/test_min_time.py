@@ -13,19 +13,22 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-import scipy.integrate
-import scipy.optimize
 
 import jaxlpm as lpm
 from jaxlpm import Status
 from jaxlpm.cases import duan
 from jaxlpm.dynamics import hcw_matrix
 from jaxlpm.problems import MinimumTimeTransfer, OptimalControlProblem
-from jaxlpm.problems.min_time import min_time_ocp, state_scale
+from jaxlpm.problems.min_time import duration_lower_bound, min_time_ocp, state_scale
 from jaxlpm.problems.transcription import collocated_rows, pack, state_tau, unpack
 from jaxlpm.solvers import augmented_lagrangian
 from jaxlpm.verify import (control_interpolant, min_time_shooting, propagate_linear,
                            terminal_error)
+
+# after jaxlpm, which sets one OpenBLAS thread unless scipy has already loaded it (its pool
+# contends with XLA's: the dense KKT factorisations of these solves run ~10x slower)
+import scipy.integrate  # noqa: E402
+import scipy.optimize  # noqa: E402
 
 QUICK = {"xla_backend_optimization_level": 0}
 K = 16
@@ -60,10 +63,16 @@ def smooth(solve):
 
 
 @pytest.fixture(scope="module")
-def shooting(smooth):
+def shoot(smooth):
+    """Shooting on the necessary conditions, compiled once for every problem and seed."""
     prob, sol = smooth
-    return quick(lambda p, lam, d: min_time_shooting(p, lam, d), prob, sol.costates[0],
-                 sol.duration)
+    return jax.jit(min_time_shooting).lower(prob, sol.costates[0], sol.duration).compile(QUICK)
+
+
+@pytest.fixture(scope="module")
+def shooting(smooth, shoot):
+    prob, sol = smooth
+    return shoot(prob, sol.costates[0], sol.duration)
 
 
 def test_min_time_converges_with_unit_direction(smooth):
@@ -99,13 +108,9 @@ def test_pontryagin_conditions_at_lg_points(smooth):
     assert np.linalg.norm(lv, axis=1).min() > 0.2 * np.linalg.norm(lv, axis=1).max()
 
 
-def test_shooting_confirms_minimum_time(smooth, shooting):
-    """An independent method: shooting on the necessary conditions, seeded by the costate
-    estimate, converges to the same t_f; its control law flown by scipy's DOP853 hits x_f."""
-    prob, sol = smooth
-    assert int(shooting.status) == Status.SUCCESS
-    # K = 16 resolves this smooth optimum to ~1e-11 relative: 1e-7 s is ~1e-9 relative
-    assert abs(float(shooting.duration) - float(sol.duration)) < 1e-7
+def fly_primer_law(prob, shot):
+    """x(t_f) of the shooting solution's law u = -a lambda_v / |lambda_v|, lambda' = -A^T
+    lambda, flown from x0 by scipy's DOP853 at rtol 1e-12 (not jaxlpm's integrator)."""
     n = float(prob.orbit.mean_motion)
     A = np.asarray(hcw_matrix(n))
     a = float(prob.acceleration)
@@ -116,11 +121,21 @@ def test_shooting_confirms_minimum_time(smooth, shooting):
         u = -lam[3:] / np.linalg.norm(lam[3:])
         return np.concatenate([A @ x + np.concatenate([np.zeros(3), a * u]), -A.T @ lam])
 
-    lam0 = np.asarray(shooting.costate0) / lam_scale
-    out = scipy.integrate.solve_ivp(rhs, (0.0, float(shooting.duration)),
-                                    np.concatenate([np.zeros(6), lam0]), method="DOP853",
-                                    rtol=1e-12, atol=1e-14)
-    xf = out.y[:6, -1]
+    lam0 = np.asarray(shot.costate0) / lam_scale
+    out = scipy.integrate.solve_ivp(rhs, (0.0, float(shot.duration)),
+                                    np.concatenate([np.asarray(prob.x0), lam0]),
+                                    method="DOP853", rtol=1e-12, atol=1e-14)
+    return out.y[:6, -1]
+
+
+def test_shooting_confirms_minimum_time(smooth, shooting):
+    """An independent method: shooting on the necessary conditions, seeded by the costate
+    estimate, converges to the same t_f; its control law flown by scipy's DOP853 hits x_f."""
+    prob, sol = smooth
+    assert int(shooting.status) == Status.SUCCESS
+    # K = 16 resolves this smooth optimum to ~1e-11 relative: 1e-7 s is ~1e-9 relative
+    assert abs(float(shooting.duration) - float(sol.duration)) < 1e-7
+    xf = fly_primer_law(prob, shooting)
     # DOP853 at rtol 1e-12 over ~100 s of motion at ~30 m: ~1e-9 m; 1e-6 m leaves margin
     np.testing.assert_allclose(xf[:3], np.asarray(prob.xf[:3]), atol=1e-6)
     np.testing.assert_allclose(xf[3:], np.asarray(prob.xf[3:]), atol=1e-8)
@@ -206,6 +221,119 @@ def test_bad_input_raises():
     for p, g, match in cases:
         with pytest.raises(ValueError, match=match):
             lpm.min_time_transfer(p, g)
+
+
+# ------------------------------------------- thrust levels and duration bounds (issue 17)
+
+K_LOW = 64          # LG points for the 0.01 N transfer: its 5 orbits need several per orbit
+
+
+@pytest.fixture(scope="module")
+def solve_low():
+    """One compiled solver on K_LOW LG points."""
+    grid = lpm.lg(K_LOW)
+    return jax.jit(lambda p: lpm.min_time_transfer(p, grid)).lower(
+        smooth_problem()).compile(QUICK)
+
+
+@pytest.fixture(scope="module")
+def low_thrust(solve_low):
+    prob = smooth_problem(thrust=0.01)
+    return prob, solve_low(prob)
+
+
+def test_thrust_levels_converge_on_a_resolving_grid(smooth, solve_low, low_thrust):
+    """No t_max: 1 N (112 s) and 0.01 N (5 orbits) both end SUCCESS on 64 LG points, unit
+    directions and the requested ends. At 1 N both grids resolve the smooth transfer (~1e-11
+    relative): they agree to the AL's tolerances (|u|^2 - 1 <= 1e-9: ~1e-9 relative in t_f,
+    1e-7 s; 1e-6 s leaves margin)."""
+    prob, sol = smooth
+    fast = solve_low(prob)
+    assert int(fast.status) == Status.SUCCESS, fast.message
+    assert abs(float(fast.duration) - float(sol.duration)) < 1e-6
+    prob, low = low_thrust
+    assert int(low.status) == Status.SUCCESS, low.message
+    assert float(low.path_residual) <= 1e-9
+    np.testing.assert_allclose(np.linalg.norm(np.asarray(low.node_directions), axis=1), 1.0,
+                               atol=1e-9)
+    np.testing.assert_allclose(np.asarray(low.states[-1]), np.asarray(prob.xf), atol=1e-8)
+
+
+def test_low_thrust_minimum_time_confirmed_by_shooting(low_thrust, shoot):
+    """0.01 N: shooting on Pontryagin's conditions (grid-independent), seeded by the K = 64
+    costates, converges to the continuous t_f*, whose law flown by scipy's DOP853 for the 5
+    orbits hits x_f. The direction turns within a fraction of an orbit, so LG converges
+    algebraically here: t_f - t_f* is 20, 1.8 and 0.04 s at K = 32, 64, 96 (6e-5 relative at
+    64); 2e-4 leaves margin. The lower bound holds below t_f*."""
+    prob, sol = low_thrust
+    shot = shoot(prob, sol.costates[0], sol.duration)
+    assert int(shot.status) == Status.SUCCESS
+    t_star = float(shot.duration)
+    assert abs(float(sol.duration) - t_star) < 2e-4 * t_star
+    assert float(duration_lower_bound(prob)) < t_star
+    xf = fly_primer_law(prob, shot)
+    # DOP853 at rtol 1e-12 over 5 orbits of motion at ~1 km: ~1e-8 m; 1e-5 m leaves margin
+    np.testing.assert_allclose(xf[:3], np.asarray(prob.xf[:3]), atol=1e-5)
+    np.testing.assert_allclose(xf[3:], np.asarray(prob.xf[3:]), atol=1e-8)
+
+
+def test_unresolved_low_thrust_is_not_reported_infeasible(solve):
+    """No t_max, 16 LG points: 0.01, 1e-3 and 1e-4 N last 5, >= 18 and >= 180 orbits (the
+    lower bound), which 16 points cannot represent; every such request is feasible (bounded
+    thrust reaches any HCW state), so the AL's stall ends STALLED, never INFEASIBLE, with
+    finite outputs."""
+    for thrust in (1e-2, 1e-3, 1e-4):
+        sol = solve(smooth_problem(thrust=thrust))
+        assert int(sol.status) == Status.STALLED, (thrust, sol.message)
+        assert np.isfinite(float(sol.duration))
+        assert np.all(np.isfinite(np.asarray(sol.node_controls)))
+
+
+def test_too_short_duration_bound_is_infeasible(smooth, solve):
+    """1 mN with t_max = 0.9 t_lb: shown infeasible by the lower bound, though t_max is 19
+    times the rest-to-rest bang-bang time 2 sqrt(|dr| / a). 1 N with t_max between t_lb and
+    t_f: shown by the AL's certificate with the bound active."""
+    slow = smooth_problem(thrust=1e-3)
+    t_lb = float(duration_lower_bound(slow))
+    a = float(slow.acceleration)
+    assert 0.9 * t_lb > 10.0 * 2.0 * np.sqrt(float(jnp.linalg.norm(slow.xf[:3])) / a)
+    bad = solve(slow.replace(duration_bounds=jnp.array([0.0, 0.9 * t_lb])))
+    assert int(bad.status) == Status.INFEASIBLE, bad.message
+    prob, sol = smooth
+    t_lb = float(duration_lower_bound(prob))
+    assert 0.9 * float(sol.duration) < t_lb < float(sol.duration)
+    t_max = 0.5 * (t_lb + float(sol.duration))
+    bad = solve(prob.replace(duration_bounds=jnp.array([0.0, t_max])))
+    assert int(bad.status) == Status.INFEASIBLE, bad.message
+    assert float(bad.path_multipliers.bounds[1]) > 0.0
+
+
+def test_lower_bound_holds_on_flown_arcs(smooth):
+    """Any arc flown at full thrust is a feasible transfer between its end states, so
+    `duration_lower_bound` of those states is at most the arc's duration: checked on CW
+    flights (scipy DOP853, rtol 1e-12) with a turning direction, and with the thrust
+    along-track, where the bound is exact (n x_c / 2 grows at a, sigma stays)."""
+    prob, _ = smooth
+    n, a = float(prob.orbit.mean_motion), float(prob.acceleration)
+    A = np.asarray(hcw_matrix(n))
+    ts = np.linspace(0.0, 300.0, 31)
+
+    def arc_bounds(direction):
+        def rhs(t, x):
+            return A @ x + np.concatenate([np.zeros(3), a * direction(t)])
+        out = scipy.integrate.solve_ivp(rhs, (0.0, ts[-1]), np.asarray(prob.xf), t_eval=ts,
+                                        method="DOP853", rtol=1e-12, atol=1e-12)
+        bound = [float(duration_lower_bound(prob.replace(x0=jnp.asarray(out.y[:, 0]),
+                                                         xf=jnp.asarray(out.y[:, k]))))
+                 for k in range(1, ts.size)]
+        return np.array(bound), ts[1:]
+
+    w = 2 * np.pi / 100.0
+    bound, dt = arc_bounds(lambda t: np.array([np.cos(w * t), 0.6 * np.sin(w * t),
+                                               0.8 * np.sin(w * t)]))
+    assert np.all(bound <= dt * (1.0 + 1e-9))         # 1e-9: the integrator's accuracy
+    bound, dt = arc_bounds(lambda t: np.array([0.0, 1.0, 0.0]))
+    np.testing.assert_allclose(bound, dt, rtol=1e-9)
 
 
 # --------------------------------------------------------- a generic inequality problem

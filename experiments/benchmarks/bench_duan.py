@@ -42,7 +42,7 @@ from common import block, cold_compile, machine_info, timed  # noqa: E402  (this
 from jaxlpm import lg, min_time_transfer  # noqa: E402
 from jaxlpm.cases import duan  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402
-from jaxlpm.problems.min_time import min_time_ocp  # noqa: E402
+from jaxlpm.problems.min_time import duration_lower_bound, min_time_ocp  # noqa: E402
 from jaxlpm.problems.transcription import equality, path_values  # noqa: E402
 from jaxlpm.solvers.min_time import initial_guess  # noqa: E402
 
@@ -98,7 +98,7 @@ def main(argv=None):
           f"{ours['outer_iterations']} outer / {ours['inner_iterations']} Newton iterations")
 
     ocp = min_time_ocp(prob, 0.0)
-    z0 = initial_guess(ocp, grid)
+    z0 = initial_guess(ocp, grid, float(prob.orbit.mean_motion * duration_lower_bound(prob)))[0]
     ocp = ocp.replace(sf=z0[-1])
     P = ocp.params
     pvec = np.concatenate([np.asarray(P["x0"]), np.asarray(P["xf"]), [float(P["accel"])],

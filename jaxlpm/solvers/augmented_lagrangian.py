@@ -140,12 +140,12 @@ def al_kkt_residual(w, ocp, grid):
                             jnp.minimum(-G, mu).reshape(-1), jnp.minimum(-B, mu_b)])
 
 
-def _outer_loop(w0, ocp, grid, options: ALOptions, linear_algebra=DenseKKT):
+def _outer_loop(w0, rho0, ocp, grid, options: ALOptions, linear_algebra=DenseKKT):
     n, m = _sizes(ocp, grid)[:2]
     z0, lam0, mu0, nu0, mub0 = _split(w0, ocp, grid)
     opts = options
     dtype = z0.dtype
-    penalty0 = PathPenalty(mu0, nu0, mub0, jnp.asarray(opts.rho0, dtype))
+    penalty0 = PathPenalty(mu0, nu0, mub0, jnp.asarray(rho0, dtype))
 
     def body(s):
         wz, pen, k, inner_total, v_prev, hist, _, _ = s
@@ -197,17 +197,19 @@ def _outer_loop(w0, ocp, grid, options: ALOptions, linear_algebra=DenseKKT):
 @functools.lru_cache(maxsize=None)
 def _solver(options: ALOptions, linear_algebra=DenseKKT):
     @root(al_kkt_residual, has_aux=True, zero_nonfinite=True)
-    def solve(w0, ocp, grid):
-        return _outer_loop(w0, ocp, grid, options, linear_algebra)
+    def solve(start, ocp, grid):
+        return _outer_loop(*start, ocp, grid, options, linear_algebra)
     return solve
 
 
 def augmented_lagrangian(ocp, grid, z0, multipliers0=None,
-                         options: ALOptions = ALOptions(), linear_algebra=DenseKKT) -> ALResult:
+                         options: ALOptions = ALOptions(), linear_algebra=DenseKKT,
+                         penalty0=None) -> ALResult:
     """Solve the transcribed problem with its path constraints and final-s bounds from z0.
 
     multipliers0: equality multipliers (default: the linear algebra's first estimate, least
-    squares for `DenseKKT`); the path multipliers start at 0. linear_algebra: how the inner
+    squares for `DenseKKT`). penalty0: a `PathPenalty` to start from, its multipliers (shaped
+    as G, H, B) and rho (default: multipliers 0, rho = options.rho0). linear_algebra: how the inner
     Newton-KKT systems are solved (see `newton_kkt`). Returns an `ALResult`, differentiable with respect to the problem's array
     leaves by the implicit function theorem at the KKT point.
     """
@@ -228,10 +230,16 @@ def augmented_lagrangian(ocp, grid, z0, multipliers0=None,
     if multipliers0 is None:          # a starting point: not differentiated
         fixed = jax.lax.stop_gradient((ocp, z0))
         multipliers0 = linear_algebra(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
-    lam0 = multipliers0
-    zeros = jnp.zeros(sg[0] * sg[1] + sh[0] * sh[1] + sb[0], z0.dtype)
+    if penalty0 is None:
+        penalty0 = PathPenalty(jnp.zeros(sg, z0.dtype), jnp.zeros(sh, z0.dtype),
+                               jnp.zeros(sb, z0.dtype), options.rho0)
+    path0 = [jnp.reshape(v, -1).astype(z0.dtype)
+             for v in (penalty0.inequality, penalty0.equality, penalty0.bounds)]
+    if [v.size for v in path0] != [sg[0] * sg[1], sh[0] * sh[1], sb[0]]:
+        raise ValueError(f"penalty0's multipliers must have the shapes {sg}, {sh}, {sb} of the "
+                         f"path values G, H and the bounds B")
     w, (status, st_in, k, inner_total, hist, rho) = _solver(options, linear_algebra)(
-        jnp.concatenate([z0, lam0, zeros]), ocp, grid)
+        (jnp.concatenate([z0, multipliers0] + path0), penalty0.rho), ocp, grid)
     z, lam, mu, nu, mu_b = _split(w, ocp, grid)
     fixed = jax.lax.stop_gradient(w)
     res = al_kkt_residual(fixed, ocp, grid)

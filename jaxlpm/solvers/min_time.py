@@ -1,73 +1,232 @@
 """Minimum-time transfers (`jaxlpm.problems.min_time`) by the augmented-Lagrangian solver.
 
-Initial guess (no user guess needed): the energy-optimal QP over the same dynamics and ends
-(one Newton-KKT step), at the duration T where its RMS control equals the thrust
-acceleration (the control u_hat is in units of that acceleration: RMS u_hat = 1). For a double
-integrator u ~ 1/T^2, so T <- T sqrt(rms u_hat) converges in a few sweeps; it starts from the rest-to-rest bang-bang time 2 sqrt(|dr| / a) + |dv| / a. The
-energy-optimal control at the minimum time has RMS <= a (the minimum-time control is a
-feasible competitor with RMS = a), so the guess undershoots t_f slightly; its controls,
-normalised to unit length, are the initial directions.
+Initial guess: the minimum time of the linear system itself (Neustadt 1960; Hermes & LaSalle
+1969), on the grid's quadrature. In the solver's units (s = n t, B = [0; I], Phi(s) = exp(A s)
+in closed form, thrust acceleration a~) the unit control reaches x_f in a duration S iff
+
+    p . d(S) <= a~ F_S(p) for every p,    d(S) = x_f - Phi(S) x_0,
+    F_S(p) = int_0^S |B^T Phi(S - s)^T p| ds ~ (S / 2) sum_i w_i |v_i|,  v_i = B^T Phi(S - s_i)^T p
+
+(F_S: the support function of the states the control adds), so the minimum time solves
+a~ F*(S) = 1, F*(S) = min_{p . d = 1} F_S(p), with the primer direction u_i = v_i / |v_i| at the
+minimiser p*. F_S is convex in p: Newton from the energy-optimal p (the Gramian's W^-1 d).
+S: Newton on log(a~ F*) against log S (exact for F* ~ S^q: q = 2 for a short rest-to-rest
+transfer, q ~ 1 for a drift-dominated low-thrust one of many orbits), dF*/dS at fixed p* (the
+envelope theorem), from max(t_lb, 2 sqrt(|dr| / a) + |dv| / a) (`duration_lower_bound`, and the
+rest-to-rest bang-bang time plus the velocity change at full thrust), within
+[max(t_min, t_lb), t_max]. States and controls: the energy-optimal QP of the same transcription
+with weights |v_i| (its control ~ v_i / |v_i| times the thrust needed), directions normalised.
+Multipliers: the QP's, Lambda = c Lambda_QP with c from dL/ds_f = 1 + Lambda . dc/ds_f = 0, and
+from stationarity in u_i at |u_i| = 1, nu_i = -u_i . (dc/du_i)^T Lambda / 2. Penalty: the first
+rho of the AL's schedule rho0 growth^k at which the inner problem's reduced Hessian at the
+guess is positive definite (the AL is exact only above such a threshold; Nocedal & Wright 2006,
+Thm 17.5: below it the solution is a saddle of the inner problem).
+
+The inner Newton-KKT systems are solved by `DenseKKT`: for transfers of several orbits the
+condensed elimination (`CondensedSecondOrder`) leaves a stationarity error above the inner
+tolerance (its steps lose digits as the states grow along the orbits), so those solves ended
+at the iteration limit; the guess's QP and the convexity test use the condensed system.
 """
+
+import math
 
 import jax
 import jax.numpy as jnp
 
 from .._validation import is_concrete, require_x64
 from ..collocation import Grid
-from ..problems.min_time import (check_min_time_problem, energy_ocp, min_time_ocp,
-                                 state_scale)
-from ..problems.transcription import (collocation_s, costates, objective, pack, state_tau,
+from ..linalg import cholesky_solve, small_spd_solve
+from ..problems.fuel_optimal import hcw_flow
+from ..problems.min_time import (check_min_time_problem, duration_lower_bound, energy_ocp,
+                                 min_time_ocp, state_scale)
+from ..problems.ocp import PathPenalty
+from ..problems.transcription import (collocation_s, costates, equality, pack, state_tau,
                                       unpack)
 from ..status import Status
 from .augmented_lagrangian import ALOptions, augmented_lagrangian
 from .condensed import CondensedSecondOrder
-from .newton import newton_step
+from .newton import DenseKKT, newton_step
 from .solution import MinimumTimeSolution
 
-GUESS_SWEEPS = 4
 MIN_POINTS = {"LGL": 4, "LG": 3, "LGR": 3}
+DUAL_ITERATIONS = 30       # Newton on p: quadratic where the primer has no zero at a point, and
+#                            where it has one (a kink of F) the value still settles to round-off
+DURATION_ITERATIONS = 50   # Newton on log S (a handful where log F* is smooth in log S)
+DURATION_TOL = 1e-12       # relative step in S at which Newton stops: near the round-off of
+#                            the quadrature sum, so a resolved transfer's guess is the
+#                            collocated solution to the discretisation error
 
 
-def _energy_qp(ocp, grid, duration_nd):
-    """(z, 1/2 int |u|^2 ds) of the energy-optimal QP over duration_nd."""
-    eo = energy_ocp(ocp, duration_nd)
-    n_rows = state_tau(grid).shape[0]
-    zero = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), eo.sf, eo)
-    z, _ = newton_step(eo, grid, zero, CondensedSecondOrder)
-    return z, objective(z, eo, grid), eo
+def _primer_basis(S, grid):
+    """Phi(S - s_i) B (n, 6, 3) at the collocation points s_i = S (tau_i + 1) / 2."""
+    return jax.vmap(hcw_flow)(0.5 * S * (1.0 - grid.points))[:, :, 3:]
 
 
-def initial_guess(ocp, grid):
-    """z0 for the minimum-time problem (see the module docstring)."""
-    a = ocp.params["accel"]
-    d = ocp.params["xf"] - ocp.params["x0"]
-    T = 2.0 * jnp.sqrt(jnp.linalg.norm(d[:3]) / a) + jnp.linalg.norm(d[3:]) / a
+def _target(S, params):
+    """d(S) = x_f - Phi(S) x_0."""
+    return params["xf"] - hcw_flow(S) @ params["x0"]
+
+
+def _support(S, p, grid):
+    """F_S(p) by the grid's quadrature."""
+    v = jnp.einsum("kia,i->ka", _primer_basis(S, grid), p)
+    return 0.5 * S * grid.weights @ jnp.linalg.norm(v, axis=1)
+
+
+def _complement(d):
+    """(6, 5) orthonormal columns orthogonal to d: the Householder reflection taking e_1 to
+    -sign(d_1) d / |d|, less its first column."""
+    v = d / jnp.linalg.norm(d)
+    v = v.at[0].add(jnp.where(v[0] >= 0.0, 1.0, -1.0))
+    return (jnp.eye(6, dtype=d.dtype) - 2.0 * jnp.outer(v, v) / (v @ v))[:, 1:]
+
+
+def _dual(S, params, grid):
+    """p* = argmin F_S(p) subject to p . d(S) = 1 (see the module docstring): p = p0 + Z y,
+    Z^T d = 0, Newton on y with gradient sum_i w_i (PZ)_i v^_i and Hessian
+    sum_i w_i (PZ)_i (I - v^_i v^_i^T) (PZ)_i^T / |v_i| (v^ = v / |v|, w_i the quadrature
+    weights times S / 2)."""
+    d = _target(S, params)
+    P = _primer_basis(S, grid)
+    w = 0.5 * S * grid.weights
+    p0 = small_spd_solve(jnp.einsum("k,kia,kja->ij", w, P, P), d)[0]   # the Gramian's
+    p0 = p0 / (p0 @ d)
+    Z = _complement(d)
+    v0 = jnp.einsum("kia,i->ka", P, p0)
+    PZ = jnp.einsum("kia,ij->kja", P, Z)
+
+    def f(y):
+        return w @ jnp.linalg.norm(v0 + jnp.einsum("kja,j->ka", PZ, y), axis=1)
+
+    def newton(y, _):
+        v = v0 + jnp.einsum("kja,j->ka", PZ, y)
+        r = jnp.linalg.norm(v, axis=1)
+        u = v / r[:, None]
+        g = jnp.einsum("k,kja,ka->j", w, PZ, u)
+        curv = jnp.eye(3, dtype=v.dtype) - u[:, :, None] * u[:, None, :]
+        H = jnp.einsum("k,kia,kab,kjb->ij", w / r, PZ, curv, PZ)
+        step = -small_spd_solve(H, g)[0]
+        fy, slope = f(y), g @ step
+
+        def halve(t):
+            return 0.5 * t[0], t[1] + 1
+
+        alpha, _ = jax.lax.while_loop(
+            lambda t: (f(y + t[0] * step) > fy + 1e-4 * t[0] * slope) & (t[1] < 60),
+            halve, (jnp.ones((), y.dtype), 0))
+        y_new = y + alpha * step
+        return jnp.where(f(y_new) <= fy, y_new, y), None
+
+    y, _ = jax.lax.scan(newton, jnp.zeros(5, d.dtype), None, length=DUAL_ITERATIONS)
+    return p0 + Z @ y
+
+
+def _duration(params, grid, S0, lo, hi):
+    """S with a~ F*(S) = 1 (or the end of [lo, hi] nearest to it), by Newton on log S."""
+    a = params["accel"]
+
+    def log_margin(u, p):                          # log(a~ F_S(p) / p . d(S)), S = e^u
+        S = jnp.exp(u)
+        return jnp.log(a * _support(S, p, grid) / (p @ _target(S, params)))
+
+    def body(state):
+        u, _, k = state
+        g, dg = jax.value_and_grad(log_margin)(u, _dual(jnp.exp(u), params, grid))
+        # where log F* is not increasing in log S, the step of F* ~ S^2 (S <- S sqrt(m))
+        step = jnp.where(dg > 0, -g / dg, -0.5 * g)
+        u_new = jnp.clip(u + step, jnp.log(lo), jnp.log(hi))
+        u_new = jnp.where(jnp.isfinite(u_new), u_new, u)
+        return u_new, u_new - u, k + 1
+
+    u0 = jnp.clip(jnp.log(S0), jnp.log(lo), jnp.log(hi))
+    u, _, _ = jax.lax.while_loop(
+        lambda s: (jnp.abs(s[1]) > DURATION_TOL) & (s[2] < DURATION_ITERATIONS), body,
+        (u0, jnp.asarray(jnp.inf, u0.dtype), 0))
+    return jnp.exp(u)
+
+
+def initial_guess(ocp, grid, duration_floor):
+    """(z0, equality multipliers, direction multipliers nu (n,)) for the minimum-time problem;
+    duration_floor: a lower bound on s_f - s0 (see the module docstring)."""
+    params = ocp.params
+    a = params["accel"]
+    d = params["xf"] - params["x0"]
+    start = jnp.maximum(duration_floor, 2.0 * jnp.sqrt(jnp.linalg.norm(d[:3]) / a)
+                        + jnp.linalg.norm(d[3:]) / a)
     lo, hi = ocp.final_bounds - ocp.s0
+    S = _duration(params, grid, start, jnp.maximum(lo, duration_floor), hi)
+    v = jnp.linalg.norm(jnp.einsum("kia,i->ka", _primer_basis(S, grid), _dual(S, params, grid)),
+                        axis=1)
+    weights = jnp.maximum(v, jnp.finfo(v.dtype).eps * jnp.max(v))
+    eo = energy_ocp(ocp, S, weights)
+    zero = pack(jnp.zeros((state_tau(grid).shape[0], ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)),
+                eo.sf, eo)
+    z_qp, lam_qp = newton_step(eo, grid, zero, CondensedSecondOrder)
+    X, U, _ = unpack(z_qp, eo, grid)
+    norm = jnp.linalg.norm(U, axis=1, keepdims=True)
+    U = U / jnp.where(norm > 0.0, norm, 1.0)
+    ocp = ocp.replace(sf=ocp.s0 + S)
+    z0 = pack(X, U, ocp.sf, ocp)
 
-    def sweep(T, _):
-        _, J, _ = _energy_qp(ocp, grid, T)
-        rms = jnp.sqrt(2.0 * J / T)
-        return jnp.clip(T * jnp.sqrt(rms), lo, hi), None
+    def constraints(z):
+        return equality(z, ocp, grid)
 
-    T, _ = jax.lax.scan(sweep, jnp.clip(T, lo, hi), None, length=GUESS_SWEEPS)
-    z, _, eo = _energy_qp(ocp, grid, T)
-    X, U, _ = unpack(z, eo, grid)
-    U = U / jnp.maximum(jnp.linalg.norm(U, axis=1, keepdims=True), 1e-12)
-    return pack(X, U, ocp.s0 + T, ocp)
+    dc_dsf = jax.jvp(constraints, (z0,), (jnp.zeros_like(z0).at[-1].set(1.0),))[1]
+    lam = -lam_qp / (lam_qp @ dc_dsf)
+    _, grad_u, _ = unpack(jax.vjp(constraints, z0)[1](lam)[0], ocp, grid)
+    return z0, lam, -0.5 * jnp.sum(grad_u * U, axis=1)
+
+
+def _direction_penalty(nu, rho, n_bounds=0):
+    """`PathPenalty` with multipliers nu of the unit-direction equalities and zero ones for
+    n_bounds final-s bounds."""
+    return PathPenalty(jnp.zeros((nu.size, 0), nu.dtype), nu[:, None],
+                       jnp.zeros(n_bounds, nu.dtype), rho)
+
+
+def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
+    """The first rho of the AL's schedule rho0 growth^k (up to rho_max) at which the reduced
+    Hessian of the inner problem at (z0, lam0, nu0), M0 + rho J^T J (M0 that of the
+    Lagrangian, J the rows 2 u_i^T of the directions' constraints on the null space of the
+    linearised defects, |u_i| = 1), is positive definite (its Cholesky factor is finite);
+    rho0 if none is. The final-s bounds are left out: their penalty only adds to it."""
+    steps = math.ceil(math.log(options.rho_max / options.rho0) / math.log(options.rho_growth))
+    rhos = jnp.minimum(options.rho0 * options.rho_growth ** jnp.arange(steps + 1.0),
+                       options.rho_max)
+    la = CondensedSecondOrder(ocp.replace(final_bounds=None,
+                                          penalty=_direction_penalty(nu0, 0.0)), grid, z0)
+    _, _, M0, T = la.hessian(la.prepare(z0, lam0), z0, lam0)
+    _, U, _ = unpack(z0, ocp, grid)
+    J = 2.0 * jnp.einsum("ia,iak->ik", U, T[la.idx[:, ocp.n_x:]])
+    ones = jnp.ones(M0.shape[0], M0.dtype)
+    positive = jax.vmap(
+        lambda r: jnp.all(jnp.isfinite(cholesky_solve(M0 + r * J.T @ J, ones))))(rhos)
+    return jnp.where(jnp.any(positive), rhos[jnp.argmax(positive)], options.rho0)
 
 
 def _min_time_transfer(problem, grid, options: ALOptions) -> MinimumTimeSolution:
     valid = problem.validity()
     problem = problem.sanitized(valid)
-    ocp = min_time_ocp(problem, 0.0)
-    z0 = initial_guess(jax.lax.stop_gradient(ocp), grid)   # a starting point: not differentiated
-    ocp = ocp.replace(sf=z0[-1])
-    result = augmented_lagrangian(ocp, grid, z0, options=options,
-                                  linear_algebra=CondensedSecondOrder)
-    X, U, sf = unpack(result.z, ocp, grid)
     n = problem.orbit.mean_motion
+    t_lb = duration_lower_bound(problem)
+    ocp = min_time_ocp(problem, 0.0)
+    fixed = jax.lax.stop_gradient(ocp)                  # a starting point: not differentiated
+    z0, lam0, nu0 = initial_guess(fixed, grid, jax.lax.stop_gradient(n * t_lb))
+    fixed = fixed.replace(sf=z0[-1])
+    rho0 = _first_convex_penalty(fixed, grid, z0, lam0, nu0, options)
+    result = augmented_lagrangian(ocp.replace(sf=z0[-1]), grid, z0, lam0, options=options,
+                                  linear_algebra=DenseKKT,
+                                  penalty0=_direction_penalty(nu0, rho0, n_bounds=2))
+    X, U, sf = unpack(result.z, ocp, grid)
     state_s = ocp.s0 + 0.5 * (sf - ocp.s0) * (state_tau(grid) + 1.0)
     node_s = collocation_s(ocp, grid, sf)
+    # infeasibility is shown by the lower bound, or by the AL's certificate with the duration
+    # held at t_max (`min_time_transfer`)
+    al_infeasible = result.status == Status.INFEASIBLE
+    shown = (t_lb > problem.bounds[1]) | (al_infeasible
+                                          & (result.path_multipliers.bounds[1] > 0.0))
+    status = jnp.where(shown, Status.INFEASIBLE,
+                       jnp.where(al_infeasible, Status.STALLED, result.status))
 
     def keep(x):
         return jnp.where(valid, x, jnp.zeros_like(x))
@@ -83,7 +242,7 @@ def _min_time_transfer(problem, grid, options: ALOptions) -> MinimumTimeSolution
         stationarity_residual=result.stationarity_residual,
         complementarity=result.complementarity, outer_iterations=result.outer_iterations,
         inner_iterations=result.inner_iterations, history=result.history,
-        status=jnp.where(valid, result.status, Status.INVALID_INPUT).astype(jnp.int32))
+        status=jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32))
 
 
 _compiled = jax.jit(_min_time_transfer, static_argnames="options")
@@ -94,8 +253,16 @@ def min_time_transfer(problem, grid, options: ALOptions = ALOptions()) -> Minimu
     solver; outputs in SI (LVLH, m, m/s, m/s^2, s). jit-compiled once per grid size (and
     options) for concrete inputs; vmap- and grad-able (implicit differentiation at the KKT
     point). Concrete bad input raises ValueError; traced bad input gives status
-    INVALID_INPUT and zeroed outputs. An infeasible request (a thrust too weak for t_max)
-    ends with status INFEASIBLE."""
+    INVALID_INPUT and zeroed outputs.
+
+    INFEASIBLE only where infeasibility is shown: t_max below `duration_lower_bound`, or the
+    AL's certificate (the violation stalls with the penalty at its cap) with the t_max bound
+    active. Any other such stall ends STALLED. Without duration bounds every request is
+    feasible (HCW is controllable with every eigenvalue on the imaginary axis, so bounded
+    thrust reaches any state from any state; Lee & Markus 1967): a stall there typically
+    means a grid too coarse for the transfer's revolutions (the state oscillates once per
+    orbit, and a global polynomial needs several points per orbit: 64 LG points resolve the
+    5 orbits of a 0.01 N transfer in the tests, 16 do not)."""
     require_x64()
     if not isinstance(grid, Grid):
         raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(k), lgr(k)), got {grid!r:.60}")
