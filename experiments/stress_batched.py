@@ -17,8 +17,9 @@ would). --no-workaround runs the subprocesses with XLA's concurrency-optimised s
 (`jaxlpm._cpu_runtime` respects a value in XLA_FLAGS): a path free of batched LAPACK calls
 must not hang without the workaround either.
 
-A call is a hang when its process uses no CPU for --stall-s seconds (a deadlocked pool waits
-at 0 % CPU) or runs past --timeout-s; its threads' backtraces are then saved with gdb (when
+A call is a hang when its process uses under 1 % of a core over --stall-s seconds (a
+deadlocked pool waits at 0 %; one thread still wakes for 10 ms every ~30 s) or runs past
+--timeout-s; its threads' backtraces are then saved with gdb (when
 installed) to OUT's name + _hang_<call>.txt and the process is killed. Each finished call is
 appended to OUT (JSONL) at once; a rerun with the same plan skips the calls already there
 (resumable). The summary (hangs, errors, non-finite gradients, timings per case) is printed
@@ -29,6 +30,7 @@ Run from the repository root (about 1 min per 10 calls on 2 cores once compiled)
 """
 
 import argparse
+import collections
 import json
 import os
 import shutil
@@ -43,6 +45,7 @@ CASES = ("stm/linear", "kkt/linear", "newton/linear", "newton/two-body")     # m
 SCHEDULER_ON = "--xla_cpu_enable_concurrency_optimized_scheduler=true"
 X0 = [10000.0, 10000.0, 500.0, 4.0, -23.485, 0.3]       # LVLH m, m/s; rendezvous at the origin
 E_MAX = 0.3
+IDLE = 0.01                          # CPU fraction of one core below which a call is stalled
 
 
 def plan(args):
@@ -131,14 +134,19 @@ def run_call(call, args, out_path):
             env["XLA_FLAGS"] = f"{env.get('XLA_FLAGS', '')} {SCHEDULER_ON}".strip()
         proc = subprocess.Popen([sys.executable, __file__, "--worker", json.dumps(call)],
                                 stdout=out, stderr=err, text=True, env=env)
-        ticks, last_progress, why = _cpu_ticks(proc.pid), time.perf_counter(), None
+        per_s, why = os.sysconf("SC_CLK_TCK"), None
+        samples = collections.deque([(time.perf_counter(), _cpu_ticks(proc.pid))])
         while proc.poll() is None:
             time.sleep(1.0)
-            now, t = time.perf_counter(), _cpu_ticks(proc.pid)
-            if t != ticks:
-                ticks, last_progress = t, now
-            if now - last_progress > args.stall_s:
-                why = f"no CPU use for {args.stall_s:.0f} s"
+            now, ticks = time.perf_counter(), _cpu_ticks(proc.pid)
+            if ticks is None:
+                continue
+            samples.append((now, ticks))
+            while now - samples[1][0] >= args.stall_s:      # keep one sample >= stall_s old
+                samples.popleft()
+            window, used = now - samples[0][0], (ticks - samples[0][1]) / per_s
+            if window >= args.stall_s and used < IDLE * window:
+                why = f"{100 * used / window:.2f} % CPU over {window:.0f} s"
             elif now - t0 > args.timeout_s:
                 why = f"still running after {args.timeout_s:.0f} s"
             if why and proc.poll() is None:

@@ -11,6 +11,8 @@ import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
 from jaxopt import implicit_diff
 
+from .linalg import lu_solve
+
 
 def _dense_solve(matvec, b, **kwargs):
     """Solve matvec(x) = b exactly by forming the (small) matrix column by column."""
@@ -18,7 +20,9 @@ def _dense_solve(matvec, b, **kwargs):
     flat_b, unravel = ravel_pytree(b)
     basis = jnp.eye(flat_b.size, dtype=flat_b.dtype)
     cols = jax.vmap(lambda v: ravel_pytree(matvec(unravel(v)))[0])(basis)
-    return unravel(jnp.linalg.solve(cols.T, flat_b))
+    # a vmapped gradient batches this solve: `lu_solve` makes no batched LAPACK call, which
+    # can deadlock XLA's CPU pool (`jaxlpm.linalg.sequential_when_batched`)
+    return unravel(lu_solve(cols.T, flat_b))
 
 
 def _dense_solve_or_zero(matvec, b, **kwargs):

@@ -81,13 +81,14 @@ def dense_solve(a, b):
 
 def sequential_when_batched(fun):
     """`fun` (pytree arguments, array outputs), which under `jax.vmap` runs member by member
-    (`lax.map` over the batched arguments) instead of as one batched LAPACK call. jaxlib
-    0.10's batched CPU LAPACK kernels split the batch over XLA's intra-op thread pool and block
-    until it finishes (`jax::ParallelBatchMap`); called from a pool thread while the other is
-    busy, that deadlocks (seen in a vmapped `lapack_dtrsm_ffi`, BENCHMARKS.md). Member-by-member
-    calls have no batch to split, and batched LAPACK on CPU runs member by member anyway. Not
-    differentiable: for solver internals that the implicit function theorem bypasses, and
-    initial guesses."""
+    (`lax.map` over the batched arguments, also under nested vmaps) instead of as one batched
+    LAPACK call. jaxlib 0.10's batched CPU LAPACK kernels split a large enough batch over
+    XLA's intra-op thread pool and block until it finishes (`jax::ParallelBatchMap`); two such
+    calls at once on the 2-thread pool each wait for work queued behind the other: deadlock
+    (gdb: `lapack_dtrsm_ffi`, `lapack_dgeqrf_ffi`, `lapack_dgesdd_ffi`; BENCHMARKS.md). A
+    member has no batch to split, and batched LAPACK on CPU runs member by member anyway.
+    Differentiable in forward mode only (no `jax.grad` of it unbatched): see
+    `member_by_member`."""
     wrapped = jax.custom_batching.custom_vmap(fun)
 
     @wrapped.def_vmap
@@ -98,7 +99,7 @@ def sequential_when_batched(fun):
 
         def one(xs):
             it = iter(xs)
-            return fun(*jax.tree_util.tree_unflatten(
+            return wrapped(*jax.tree_util.tree_unflatten(
                 tree, [next(it) if b else x for x, b in zip(leaves, flags)]))
 
         out = jax.lax.map(one, batched)
@@ -107,11 +108,84 @@ def sequential_when_batched(fun):
     return wrapped
 
 
+def member_by_member(fun, sequential=None):
+    """`sequential_when_batched(fun)` (or the given `sequential` form of `fun`) differentiable
+    in reverse mode (`jax.grad`, `vjp`, `jacrev`, to any order): the derivative is the VJP of
+    `fun` restricted to the outputs with nonzero cotangents, as autodiff of `fun` itself (a
+    zero cotangent times an infinite partial, an SVD's at repeated singular values, would give
+    NaN), run member by member under vmap too, after recomputing `fun`'s forward pass. `fun`
+    maps float arrays (a pytree) to float arrays. A `jax.custom_vjp`: no forward mode (`jvp`,
+    `jacfwd`)."""
+    sequential = sequential_when_batched(fun) if sequential is None else sequential
+
+    @jax.custom_vjp
+    def wrapped(*args):
+        return sequential(*args)
+
+    def fwd(*args):
+        args = jax.custom_derivatives.custom_vjp_primal_tree_values(args)
+        return wrapped(*args), args
+
+    def bwd(args, cotangent):
+        cts = jax.tree_util.tree_leaves(cotangent)
+        live = [type(c) is not jax.custom_derivatives.SymbolicZero for c in cts]
+
+        def live_vjp(a, live_cts):
+            def live_outputs(*a):
+                return [y for y, keep in zip(jax.tree_util.tree_leaves(fun(*a)), live) if keep]
+            return jax.vjp(live_outputs, *a)[1](live_cts)
+
+        return member_by_member(live_vjp)(args, [c for c, keep in zip(cts, live) if keep])
+
+    wrapped.defvjp(fwd, bwd, symbolic_zeros=True)
+    return wrapped
+
+
+def _lu_solve_sequential():
+    """jnp.linalg.solve(a, b) that under vmap never makes a batched LAPACK call: with `a`
+    shared, the batched right-hand sides become columns of one solve (one factorisation);
+    with `a` batched, member by member."""
+    @jax.custom_batching.custom_vmap
+    def solve(a, b):
+        return jnp.linalg.solve(a, b)
+
+    @solve.def_vmap
+    def rule(axis_size, in_batched, a, b):
+        a_batched, b_batched = in_batched
+        if a_batched:
+            b = b if b_batched else jnp.broadcast_to(b, (axis_size, *b.shape))
+            return jax.lax.map(lambda ab: solve(*ab), (a, b)), True
+        cols = jnp.moveaxis(b, 0, -1)                       # (n, ..., batch)
+        x = solve(a, cols.reshape(cols.shape[0], -1))
+        return jnp.moveaxis(x.reshape(cols.shape), -1, 0), True
+
+    return solve
+
+
+lu_solve = member_by_member(jnp.linalg.solve, _lu_solve_sequential())
+lu_solve.__doc__ = """Solve a x = b (a (n, n), b (n,) or (n, k)) by LU with partial pivoting
+(LAPACK); under vmap no batched LAPACK call (shared `a`: the right-hand sides as columns of
+one solve; batched `a`: member by member); reverse-mode differentiable (`member_by_member`)."""
+
+
 @sequential_when_batched
 def cholesky_solve(a, b):
     """Solve a x = b for symmetric positive definite a by Cholesky (LAPACK); x is NaN where a
     is not positive definite (the factorisation's NaNs propagate)."""
     return jax.scipy.linalg.cho_solve((jnp.linalg.cholesky(a), True), b)
+
+
+@sequential_when_batched
+def cholesky_factor(a):
+    """Lower Cholesky factor L of symmetric positive definite a (L L^T = a; LAPACK), NaN where
+    a is not positive definite. For solver internals (not differentiable)."""
+    return jnp.linalg.cholesky(a)
+
+
+@sequential_when_batched
+def cholesky_factor_solve(L, b):
+    """Solve (L L^T) x = b given the lower Cholesky factor L (LAPACK triangular solves)."""
+    return jax.scipy.linalg.cho_solve((L, True), b)
 
 
 @sequential_when_batched

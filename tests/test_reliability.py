@@ -210,3 +210,19 @@ def test_duan_mesh_study_marks_an_unconverged_point_apart(monkeypatch):
     assert all(150 not in list(line.get_xdata()) for line in joined)
     labels = [line.get_label() for line in figures[0].axes[0].get_lines()]
     assert any("MAX_ITERATIONS" in label for label in labels)
+
+
+def test_static_fields_compare_simply_for_jit():
+    """jit compares static pytree metadata by equality: a grid rebuilt after its operator cache
+    was cleared, and thrust axes given as a NumPy bool array, once gave "Exception raised while
+    checking equality of metadata fields" on every later call of the same law (CI, issue 17)."""
+    from jaxlpm.collocation.grid import _host_operators
+    before = lpm.lgl(11)
+    _host_operators.cache_clear()
+    after = lpm.lgl(11)
+    assert before.points is not after.points
+    axes = np.array(PLANAR)
+    costs = [float(lpm.solve(transfer(axes=a), g, method="kkt").cost)
+             for g in (before, after) for a in (axes, PLANAR)]
+    assert transfer(axes=axes).thrust_axes == PLANAR
+    assert len(set(costs)) == 1          # one problem: the same compiled law, the same number

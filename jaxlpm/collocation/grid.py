@@ -20,20 +20,16 @@ from .barycentric import (
 from .legendre import lg_nodes_weights, lgl_nodes_weights, lgr_nodes_weights
 
 _MIN_POINTS = {"LGL": 3, "LG": 1, "LGR": 2}
-_ARRAY_FIELDS = ("points", "weights", "support", "D", "support_bary", "point_bary", "integration")
 
 
-@functools.partial(
-    jax.tree_util.register_dataclass, data_fields=[],
-    meta_fields=["scheme", "n", *_ARRAY_FIELDS]
-)
 @dataclasses.dataclass(frozen=True, eq=False)
 class Grid:
     """Collocation grid with n collocation points and its operators (float64).
 
     A grid is fixed by (scheme, n): its operators are read-only host (numpy) constants, so as a
-    pytree it has no leaves (jit specialises on it, vmap never copies it into each member of a
-    batched solution) and it hashes and compares by (scheme, n).
+    pytree it has no leaves and its treedef holds (scheme, n) only (jit specialises on it and
+    hashes and compares it by (scheme, n), whichever copy of the operators it holds; vmap never
+    copies it into each member of a batched solution).
 
     points (n,), weights (n,): collocation points tau_i and quadrature weights.
     support (n_s,): nodes of the state polynomial: LGL the points (Mei 2010);
@@ -94,6 +90,11 @@ def _host_operators(scheme: str, n: int) -> dict:
     for arr in ops.values():
         arr.setflags(write=False)
     return ops
+
+
+jax.tree_util.register_pytree_node(
+    Grid, lambda grid: ((), (grid.scheme, grid.n)),
+    lambda key, _: Grid(*key, **_host_operators(*key)))
 
 
 def make_grid(scheme: str, n: int) -> Grid:

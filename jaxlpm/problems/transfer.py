@@ -43,6 +43,11 @@ class EnergyOptimalTransfer:
 
     def __post_init__(self):
         coerce_sequences(self)
+        axes = self.thrust_axes
+        if (isinstance(axes, (tuple, list, np.ndarray)) and np.ndim(axes) == 1
+                and all(isinstance(a, (bool, np.bool_)) for a in axes)):
+            # static, so compared by jit: Python bools (an array would not compare simply)
+            object.__setattr__(self, "thrust_axes", tuple(bool(a) for a in axes))
 
     @classmethod
     def from_revolutions(cls, orbit, x0, xf, revolutions, thrust_axes=(True, True, True),

@@ -2,7 +2,7 @@
 
 import jax
 
-from .._validation import is_concrete, require_x64
+from .._validation import require_x64
 from ..problems import check_problem
 from ..collocation import Grid
 from .augmented_lagrangian import ALOptions, ALResult, augmented_lagrangian
@@ -45,9 +45,9 @@ def solve(problem, grid, method: str = "kkt"):
     elif grid.n < MIN_POINTS:
         raise ValueError(f"the LQ laws need at least {MIN_POINTS} LGL points (N >= "
                          f"{MIN_POINTS - 1}), got {grid.n}")
-    if is_concrete(problem, grid):
-        return _COMPILED[method](problem, grid)
-    return LAWS[method](problem, grid)
+    # traced too: under an outer jit this inlines; under an eager vmap or grad it compiles one
+    # batched or differentiated program instead of dispatching op by op
+    return _COMPILED[method](problem, grid)
 
 
 __all__ = ["ALOptions", "ALResult", "LAWS", "MIN_POINTS", "MinimumTimeSolution", "NLPResult",

@@ -180,9 +180,7 @@ def fuel_optimal_transfer(problem: FuelOptimalTransfer, mesh: SegmentedMesh,
     require_x64()
     check_fuel_problem(problem)
     _check_mesh(mesh)
-    if is_concrete(problem, mesh):
-        return _compiled(problem, mesh, options)
-    return _fuel_optimal_transfer(problem, mesh, options)
+    return _compiled(problem, mesh, options)      # traced too: one program, not op by op
 
 
 @jax.tree_util.register_dataclass

@@ -30,7 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..dynamics.stm import IP, OP, ya_entries
-from ..linalg import RCOND_SINGULAR, qr_rcond, small_spd_solve
+from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, small_spd_solve
 from ..orbits import lvlh_to_th, th_to_lvlh, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
 from .solution import Solution
@@ -341,8 +341,11 @@ def kkt_law(problem, grid) -> Solution:
     for pos, K, G, ax in (([0, 1], K_ip, G_ip, axes[:2]), ([2], K_op, G_op, axes[2:])):
         pos = np.array(pos)
         vel = pos + 3
-        Q, V, Ub, gam, cr, sr, rcb = _kkt_block(
-            Dh, K, G, b, c, X0[pos], XT[pos], X0[vel], XT[vel], tuple(bool(a) for a in ax))
+        # QR, triangular solves and SVD: member by member under vmap, derivatives included
+        # (a batched jaxlib LAPACK call can deadlock XLA's CPU thread pool, `member_by_member`)
+        block = member_by_member(functools.partial(_kkt_block,
+                                                   active=tuple(bool(a) for a in ax)))
+        Q, V, Ub, gam, cr, sr, rcb = block(Dh, K, G, b, c, X0[pos], XT[pos], X0[vel], XT[vel])
         X = X.at[:, pos].set(Q).at[:, vel].set(V)
         U = U.at[:, pos].set(Ub)
         gamma = gamma.at[:, pos].set(gam[:, :len(pos)]).at[:, vel].set(gam[:, len(pos):])

@@ -33,7 +33,7 @@ import math
 import jax
 import jax.numpy as jnp
 
-from .._validation import is_concrete, require_x64
+from .._validation import require_x64
 from ..collocation import Grid
 from ..linalg import cholesky_solve, small_spd_solve
 from ..problems.fuel_optimal import hcw_flow
@@ -270,6 +270,4 @@ def min_time_transfer(problem, grid, options: ALOptions = ALOptions()) -> Minimu
     if grid.n < MIN_POINTS[grid.scheme]:
         raise ValueError(f"minimum-time transfers need at least {MIN_POINTS[grid.scheme]} "
                          f"{grid.scheme} points, got {grid.n}")
-    if is_concrete(problem, grid):
-        return _compiled(problem, grid, options)
-    return _min_time_transfer(problem, grid, options)
+    return _compiled(problem, grid, options)      # traced too: one program, not op by op

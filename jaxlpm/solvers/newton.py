@@ -39,6 +39,7 @@ import jax.numpy as jnp
 
 from .._validation import check_finite, is_concrete
 from ..implicit import root
+from ..linalg import cholesky_factor, cholesky_factor_solve, sequential_when_batched
 from ..problems.transcription import (equality, equality_jacobian, lagrangian,
                                       lagrangian_hessian, n_variables, objective)
 from ..status import Status
@@ -100,11 +101,14 @@ def kkt_residual(w, ocp, grid):
     return jnp.concatenate([jax.grad(lagrangian)(z, lam, ocp, grid), equality(z, ocp, grid)])
 
 
+@sequential_when_batched
 def _kkt_step(H, A, g, c, dw, dc):
     """Solve the regularised Newton-KKT system by one LU factorisation; also report whether
     its inertia can be right: K symmetric with n positive and m negative eigenvalues has
     sign(det K) = (-1)^m, read off the LU factors (pivot signs and row swaps). An odd number
-    of wrong eigenvalues (a reduced Hessian with one negative curvature) fails this test."""
+    of wrong eigenvalues (a reduced Hessian with one negative curvature) fails this test.
+    Member by member under vmap (batched LAPACK can deadlock XLA's CPU pool,
+    `jaxlpm.linalg.sequential_when_batched`); inside the Newton loop, never differentiated."""
     n, m = H.shape[0], A.shape[0]
     K = jnp.block([[H + dw * jnp.eye(n, dtype=H.dtype), A.T],
                    [A, -dc * jnp.eye(m, dtype=H.dtype)]])
@@ -120,7 +124,7 @@ def _least_squares_multipliers(z, ocp, grid):
     default; Nocedal & Wright eq. 18.21), so the first Hessian sees the constraints' curvature."""
     g = jax.grad(objective)(z, ocp, grid)
     A = equality_jacobian(z, ocp, grid)
-    return -jax.scipy.linalg.cho_solve(_gram_factor(A), A @ g)
+    return -cholesky_factor_solve(_gram_factor(A), A @ g)
 
 
 def _gram_factor(A):
@@ -130,7 +134,7 @@ def _gram_factor(A):
     it gives the least-norm solutions of the compatible systems it is used for."""
     AAt = A @ A.T
     eps = 1e-14 * jnp.max(jnp.diagonal(AAt))
-    return jax.scipy.linalg.cho_factor(AAt + eps * jnp.eye(A.shape[0], dtype=A.dtype))
+    return cholesky_factor(AAt + eps * jnp.eye(A.shape[0], dtype=A.dtype))
 
 
 class DenseKKT:
@@ -157,7 +161,7 @@ class DenseKKT:
         component may legitimately have p^T H p < 0 while c != 0)."""
         A, AAt = prep
         p, lam_new, inertia_ok = _kkt_step(H, A, g, c, dw, dc)
-        p_n = p - A.T @ jax.scipy.linalg.cho_solve(AAt, A @ p)
+        p_n = p - A.T @ cholesky_factor_solve(AAt, A @ p)
         curvature = p_n @ (H @ p_n) + dw * (p_n @ p_n)
         finite = jnp.all(jnp.isfinite(p)) & jnp.all(jnp.isfinite(lam_new))
         return p, lam_new, finite & inertia_ok & (curvature >= 0.0)
@@ -165,7 +169,7 @@ class DenseKKT:
     def correction(self, prep, r):
         """The least-norm d with A d = -r."""
         A, AAt = prep
-        return -A.T @ jax.scipy.linalg.cho_solve(AAt, r)
+        return -A.T @ cholesky_factor_solve(AAt, r)
 
     def first_multipliers(self, z):
         return _least_squares_multipliers(z, self.ocp, self.grid)

@@ -335,5 +335,4 @@ def care(A, B, Q, R) -> CareSolution:
     require_x64()
     if is_concrete(A, B, Q, R):
         validate_care_inputs(A, B, Q, R)
-        return _care_jit(*(jnp.asarray(M, jnp.float64) for M in (A, B, Q, R)))
-    return _care(A, B, Q, R)
+    return _care_jit(*(jnp.asarray(M, jnp.float64) for M in (A, B, Q, R)))
