@@ -4,8 +4,8 @@ The cause: jaxlib 0.10's batched CPU LAPACK kernels split a batch over XLA's int
 pool and block until it is done; two at once deadlock a 2-thread pool
 (`jaxlpm.linalg.sequential_when_batched`). The fix: the laws and the Newton transfer make no
 batched LAPACK call under vmap. Two guards:
-- structural: the lowered `jit(vmap(value_and_grad(cost)))` of every law has no LAPACK custom
-  call with a batch dimension (it had 35, 3, 15 and 6 before the fix);
+- structural: the lowered `jit(vmap(value_and_grad(cost)))` of every law (and of the CARE)
+  has no LAPACK custom call with a batch dimension (35, 3, 15, 6 and 21 before the fix);
 - behavioural: a short run of experiments/stress_batched.py, each call in a subprocess under
   a watchdog, with XLA's concurrency-optimised scheduler ON (`--no-workaround`), the setting
   in which the KKT law hung on its first call at every batch size tried before the fix.
@@ -43,6 +43,16 @@ def test_no_batched_lapack_call_under_vmap(method, model, n):
     calls = LAPACK.findall(text)
     assert calls, "no LAPACK call found: the pattern no longer matches jaxlib's lowering"
     assert [name for name, dims in calls if dims != "0"] == []
+
+
+def test_no_batched_lapack_call_in_a_vmapped_care_gradient():
+    """The CARE's Newton-Kleinman solve, its validity checks and its gain: member by member
+    under vmap too (it had 21 batched LAPACK calls)."""
+    a = jnp.asarray(lpm.dynamics.hcw_matrix(1.0))
+    b = jnp.vstack([jnp.zeros((3, 3)), jnp.eye(3)])
+    f = jax.value_and_grad(lambda q: lpm.care(a, b, q * jnp.eye(6), jnp.eye(3)).K.sum())
+    calls = LAPACK.findall(jax.jit(jax.vmap(f)).lower(jnp.ones(4)).as_text())
+    assert calls and [name for name, dims in calls if dims != "0"] == []
 
 
 def run_stress(out, *options):

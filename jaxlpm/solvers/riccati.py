@@ -44,7 +44,8 @@ import numpy as np
 
 from .._validation import check_finite, is_concrete, require_x64
 from ..implicit import root
-from ..linalg import RCOND_SINGULAR, qr_rcond
+from ..linalg import (RCOND_SINGULAR, cholesky_factor, member_by_member, qr_rcond,
+                      sequential_when_batched)
 from ..status import Status
 
 MAX_ITERATIONS = 50     # determinant-scaled sign iterations take ~10 on the HCW cases
@@ -87,8 +88,11 @@ class CareSolution:
         return Status(int(self.status)).message
 
 
+@member_by_member
 def _input_gain(B, R):
-    """R^-1 B^T (m, n), by a Cholesky solve (R is symmetric positive definite)."""
+    """R^-1 B^T (m, n), by a Cholesky solve (R is symmetric positive definite); member by
+    member under vmap, like every LAPACK call of the CARE (batched LAPACK can deadlock XLA's
+    CPU pool, `jaxlpm.linalg.sequential_when_batched`)."""
     return jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(R), B.T)
 
 
@@ -226,7 +230,8 @@ def _validity(A, B, Q, R):
         return jnp.linalg.norm(M - M.T) <= SYMMETRY_TOL * jnp.where(nm > 0, nm, 1.0)
 
     def positive_definite(M):
-        return jnp.all(jnp.isfinite(jnp.linalg.cholesky(jnp.where(finite, M, 1.0))))
+        M = jax.lax.stop_gradient(jnp.where(finite, M, 1.0))      # a flag: no derivative
+        return jnp.all(jnp.isfinite(cholesky_factor(M)))
 
     shift = PSD_TOL * jnp.linalg.norm(Q) + jnp.finfo(Q.dtype).tiny
     q_psd = positive_definite(Q + shift * jnp.eye(Q.shape[0], dtype=Q.dtype))
@@ -234,14 +239,14 @@ def _validity(A, B, Q, R):
 
 
 @root(riccati_residual, has_aux=True, zero_nonfinite=True)
+@sequential_when_batched          # its LU, QR and Cholesky calls: never differentiated
 def _solve(init, A, B, Q, R):
     """(P, aux) for the stabilising solution of a valid CARE; aux = (iterations, rcond, status).
 
     A failed solve is diagnosed by two more: (A, B) is stabilisable iff CARE(A, G, I) has a
     stabilising solution, (Q, A) detectable iff the dual CARE(A^T, Q, I) has one. The three
     share one compiled `_stabilising_solution` in a while_loop that makes one trip, or three
-    for a failed problem (under vmap: three only if some member failed; lax.cond would run
-    every branch for every member).
+    for a failed problem (member by member under vmap, so only a failed member makes three).
     """
     del init
     n = A.shape[0]
