@@ -178,7 +178,9 @@ class DenseKKT:
 def newton_step(ocp, grid, z, linear_algebra=DenseKKT):
     """One full Newton-KKT step from z with zero multipliers: the exact solution when the
     problem is a QP (linear dynamics, quadratic cost), e.g. the linear transfer's KKT law.
-    linear_algebra: as in `newton_kkt`. Returns (z + p, multipliers)."""
+    linear_algebra: as in `newton_kkt`. Returns (z + p, multipliers). Not differentiable
+    (its factorisations run member by member under vmap, `sequential_when_batched`): for
+    initial guesses; differentiate `newton_kkt`'s solution (implicit function theorem)."""
     la = linear_algebra(ocp, grid, z)
     lam = jnp.zeros(equality(z, ocp, grid).shape, z.dtype)
     prep = la.prepare(z, lam)
