@@ -4,7 +4,7 @@ Problem: the minimum-energy HCW transfer in nondimensional units (time 1/n, unit
 x' = A x + [0; u], cost 1/2 int |u|^2 dt, x(0) = [1, 1, 0.5, 0, -0.5, 0.1], x(3) = 0. By the
 maximum principle u = -B^T lam and lam(t) = exp(-A^T t) lam0, lam0 = G^-1 Phi(T) x0 with the
 Gramian G = int_0^T Phi(T - s) B B^T exp(-A^T s) ds (scipy quad_vec + expm: independent of
-jaxlpm). The Newton-KKT solver's costate estimates (`jaxlpm.problems.transcription.costates`)
+jaxlpm). The Newton-KKT solver's costate estimates (`jaxlpm.nlp.transcription.costates`)
 are compared at every collocation point, per scheme and number of points.
 
     python experiments/costate_convergence.py [--points 8 12 16 24]
@@ -22,8 +22,8 @@ jax.config.update("jax_enable_x64", True)
 
 import jaxlpm as lpm  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402
-from jaxlpm.problems import OptimalControlProblem  # noqa: E402
-from jaxlpm.problems import transcription as tr  # noqa: E402
+from jaxlpm.nlp import OptimalControlProblem  # noqa: E402
+from jaxlpm.nlp import transcription as tr  # noqa: E402
 
 X0 = np.array([1.0, 1.0, 0.5, 0.0, -0.5, 0.1])
 T = 3.0

@@ -12,8 +12,8 @@ _cpu_runtime.apply()
 from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
 from .orbits import KeplerOrbit  # noqa: E402
-from .problems import (EnergyOptimalTransfer, MinimumTimeTransfer,  # noqa: E402
-                       OptimalControlProblem)
+from .nlp import OptimalControlProblem  # noqa: E402
+from .problems import EnergyOptimalTransfer, MinimumTimeTransfer  # noqa: E402
 from .solvers import (ALOptions, MinimumTimeSolution, NewtonOptions, Solution,  # noqa: E402
                       TransferSolution, augmented_lagrangian, min_time_transfer, newton_kkt,
                       solve)
@@ -24,7 +24,7 @@ from .collocation.segments import SegmentedMesh, segmented_lgr  # noqa: E402
 from .problems.fuel_optimal import FuelOptimalTransfer  # noqa: E402
 from .solvers.fuel_optimal import (FuelOptimalSolution, fuel_optimal_transfer,  # noqa: E402
                                    indirect_fuel_optimal, refine_fuel_optimal)
-from .solvers.homotopy import HomotopyOptions  # noqa: E402
+from .nlp.homotopy import HomotopyOptions  # noqa: E402
 
 __version__ = "0.1.0"
 

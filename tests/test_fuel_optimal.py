@@ -20,10 +20,10 @@ from jaxlpm.collocation.segments import aligned_breaks, segmented_lgr, uniform_b
 from jaxlpm.constants import R_EARTH
 from jaxlpm.linalg import dense_solve
 from jaxlpm.problems.fuel_optimal import (FuelOptimalTransfer, condensed_lgr, hcw_flow,
-                                          hcw_input_matrices, pointwise_control, throttle)
+                                          hcw_input_matrices)
 from jaxlpm.solvers.fuel_optimal import (burn_arcs, fuel_optimal_transfer,
                                          indirect_fuel_optimal, refine_fuel_optimal)
-from jaxlpm.solvers.homotopy import HomotopyOptions
+from jaxlpm.nlp.homotopy import HomotopyOptions, pointwise_control, throttle
 
 A_CHIEF = R_EARTH + 400e3
 ORBIT = KeplerOrbit(a=jnp.asarray(A_CHIEF), e=jnp.asarray(0.0))

@@ -18,10 +18,11 @@ import jaxlpm as lpm
 from jaxlpm import Status
 from jaxlpm.cases import duan
 from jaxlpm.dynamics import hcw_matrix
-from jaxlpm.problems import MinimumTimeTransfer, OptimalControlProblem
+from jaxlpm.nlp import OptimalControlProblem
+from jaxlpm.problems import MinimumTimeTransfer
 from jaxlpm.problems.min_time import duration_lower_bound, min_time_ocp, state_scale
-from jaxlpm.problems.transcription import collocated_rows, pack, state_tau, unpack
-from jaxlpm.solvers import augmented_lagrangian
+from jaxlpm.nlp.transcription import collocated_rows, pack, state_tau, unpack
+from jaxlpm.nlp import augmented_lagrangian
 from jaxlpm.verify import (control_interpolant, min_time_shooting, propagate_linear,
                            terminal_error)
 

@@ -16,9 +16,10 @@ import jaxlpm as lpm
 from jaxlpm import Status
 from jaxlpm.cases import mei2010
 from jaxlpm.dynamics import hcw_matrix
-from jaxlpm.problems import OptimalControlProblem
-from jaxlpm.problems import transcription as tr
-from jaxlpm.solvers import newton_kkt, newton_transfer
+from jaxlpm.nlp import OptimalControlProblem
+from jaxlpm.nlp import transcription as tr
+from jaxlpm.nlp import newton_kkt
+from jaxlpm.solvers import newton_transfer
 
 # XLA's backend optimisation is most of these solvers' compile time and buys little for
 # functions run a few times: compile the tests' solves without it (as the CLI's one-off solves).
@@ -382,7 +383,7 @@ def test_point_reduced_hessian_skips_only_rows_that_vanish(zero_rows):
     equals the full contraction for each zero pattern of the point blocks (states linear,
     velocities linear, none), alone and vmapped: the same sums less exact zeros, so to
     round-off (1e-13 of the largest entry)."""
-    from jaxlpm.solvers.condensed import point_reduced_hessian
+    from jaxlpm.nlp.condensed import point_reduced_hessian
     rng = np.random.default_rng(0)
     blocks = rng.normal(size=(7, 9, 9))
     blocks = blocks + blocks.transpose(0, 2, 1)

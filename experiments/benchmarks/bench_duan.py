@@ -43,7 +43,7 @@ from jaxlpm import lg, min_time_transfer  # noqa: E402
 from jaxlpm.cases import duan  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402
 from jaxlpm.problems.min_time import duration_lower_bound, min_time_ocp  # noqa: E402
-from jaxlpm.problems.transcription import equality, path_values  # noqa: E402
+from jaxlpm.nlp.transcription import equality, path_values  # noqa: E402
 from jaxlpm.solvers.min_time import initial_guess  # noqa: E402
 
 IPOPT_OPTIONS = {"ipopt.tol": 1e-10, "ipopt.print_level": 0, "ipopt.sb": "yes",

@@ -80,12 +80,12 @@ from jaxlpm.constants import R_EARTH  # noqa: E402
 from jaxlpm.orbits import KeplerOrbit  # noqa: E402
 from jaxlpm.problems import EnergyOptimalTransfer  # noqa: E402
 from jaxlpm.problems.relative import control_scale, cost_scale, transfer_ocp  # noqa: E402
-from jaxlpm.problems.transcription import (equality, equality_jacobian,  # noqa: E402
+from jaxlpm.nlp.transcription import (equality, equality_jacobian,  # noqa: E402
                                            lagrangian_hessian, objective)
 from jaxlpm.batch.sweep import map_in_groups  # noqa: E402
 from jaxlpm.solvers import newton_transfer  # noqa: E402
-from jaxlpm.solvers.condensed import CondensedSecondOrder  # noqa: E402
-from jaxlpm.solvers.newton import _kkt_step, kkt_residual  # noqa: E402
+from jaxlpm.nlp.condensed import CondensedSecondOrder  # noqa: E402
+from jaxlpm.nlp.newton import _kkt_step, kkt_residual  # noqa: E402
 from jaxlpm.solvers.transfer import _warm_start  # noqa: E402
 from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
 

@@ -1,8 +1,7 @@
-"""Optimal-control problem definitions and their pseudospectral transcription."""
+"""Transfer problem families: what each asks (fields in SI, LVLH), its checks and how it becomes
+an NLP (`jaxlpm.nlp`)."""
 
 from .min_time import MinimumTimeTransfer
-from .ocp import OptimalControlProblem, PathPenalty
 from .transfer import MODELS, EnergyOptimalTransfer, check_problem
 
-__all__ = ["EnergyOptimalTransfer", "MODELS", "MinimumTimeTransfer", "OptimalControlProblem",
-           "PathPenalty", "check_problem"]
+__all__ = ["EnergyOptimalTransfer", "MODELS", "MinimumTimeTransfer", "check_problem"]

@@ -125,27 +125,6 @@ def rocket_fuel(dv, problem: FuelOptimalTransfer):
     return problem.mass * -jnp.expm1(-dv / (problem.isp * G0))
 
 
-def smoothed_cost(w, eps):
-    """Integrand per u_max of the smoothed cost: w - eps w (1 - w) (paper eq. 31)."""
-    return w - eps * w * (1.0 - w)
-
-
-def throttle(S, eps):
-    """The minimiser w in [0, 1] of smoothed_cost(w) - S w: clip((S - 1 + eps) / (2 eps), 0, 1)
-    (paper eq. 33 with rho = 1 - S)."""
-    return jnp.clip((S - 1.0 + eps) / (2.0 * eps), 0.0, 1.0)
-
-
-def pointwise_control(p, eps):
-    """u / u_max = throttle(|p|) p / |p| for a primer vector p (3,); smooth at p = 0 for
-    eps >= 1 (where it is p / 2 for |p| < 2) and zero there otherwise."""
-    S2 = jnp.dot(p, p)
-    safe = S2 > 0.0
-    S = jnp.sqrt(jnp.where(safe, S2, 1.0))
-    ratio = jnp.where(safe, throttle(S, eps) / S, jnp.where(eps >= 1.0, 0.5 / eps, 0.0))
-    return ratio * p
-
-
 def hcw_input_matrices():
     """(A, B) of x' = A x + B u in the solver's units (s = n t, accelerations in L n^2)."""
     B = jnp.concatenate([jnp.zeros((3, 3)), jnp.eye(3)])

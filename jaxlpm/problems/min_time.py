@@ -34,7 +34,7 @@ import jax.numpy as jnp
 from .._validation import check_finite, check_shape, coerce_sequences, is_concrete
 from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
-from .ocp import OptimalControlProblem
+from ..nlp.ocp import OptimalControlProblem
 
 
 @jax.tree_util.register_dataclass

@@ -28,8 +28,8 @@ from ..dynamics import (lvlh_frame_motion, relative_lvlh_acceleration,
 from ..dynamics.chief import (anomaly_rate, j2_chief, j2_final_anomaly, kepler_chief,
                               kepler_final_anomaly)
 from ..orbits import lvlh_to_th, th_to_lvlh
-from .ocp import OptimalControlProblem
-from .transcription import collocated_rows, state_tau
+from ..nlp.ocp import OptimalControlProblem
+from ..nlp.transcription import collocated_rows, state_tau
 from .transfer import EnergyOptimalTransfer
 
 

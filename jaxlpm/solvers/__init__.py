@@ -5,10 +5,10 @@ import jax
 from .._validation import require_x64
 from ..problems import check_problem
 from ..collocation import Grid
-from .augmented_lagrangian import ALOptions, ALResult, augmented_lagrangian
+from ..nlp.augmented_lagrangian import ALOptions, ALResult, augmented_lagrangian
 from .lq import kkt_law, stm_law
 from .min_time import min_time_transfer
-from .newton import NLPResult, NewtonOptions, newton_kkt, newton_step
+from ..nlp.newton import NLPResult, NewtonOptions, newton_kkt, newton_step
 from .solution import MinimumTimeSolution, Solution, TransferSolution
 from .transfer import newton_transfer
 

@@ -57,11 +57,11 @@ from ..collocation import Grid
 from ..constants import G0
 from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import propagate, solve_ode
-from ..problems.ocp import OptimalControlProblem
-from ..problems.transcription import pack, unpack
+from ..nlp.ocp import OptimalControlProblem
+from ..nlp.transcription import pack, unpack
 from ..status import Status
-from .augmented_lagrangian import ALOptions, augmented_lagrangian
-from .newton import NewtonOptions
+from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
+from ..nlp.newton import NewtonOptions
 from .impulsive import InterceptProblem
 
 LENGTH = 1.0e7            # m: length scale of the collocated state

@@ -1,5 +1,5 @@
 """Fuel-optimal bounded-thrust transfers on HCW (`jaxlpm.problems.fuel_optimal`) by segmented
-LGR collocation and the energy-to-fuel homotopy (`jaxlpm.solvers.homotopy`), with mesh
+LGR collocation and the energy-to-fuel homotopy (`jaxlpm.nlp.homotopy`), with mesh
 refinement at the switching times (Yue & Duan 2016's pipeline: an energy-optimal Radau
 pseudospectral solution, then the homotopy to the bang-bang fuel optimum).
 
@@ -31,7 +31,7 @@ from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, co
                                      hcw_flow, hcw_input_matrices, length_scale, rocket_fuel,
                                      state_scale)
 from ..status import Status, describe
-from .homotopy import HomotopyOptions, controls, energy_to_fuel, primers
+from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel, primers
 
 MIN_POINTS = 3
 MAX_SWITCHES = 16          # switching times found per solution (burn arcs = switches / 2)

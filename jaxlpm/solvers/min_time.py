@@ -39,13 +39,13 @@ from ..linalg import cholesky_solve, small_spd_solve
 from ..problems.fuel_optimal import hcw_flow
 from ..problems.min_time import (check_min_time_problem, duration_lower_bound, energy_ocp,
                                  min_time_ocp, state_scale)
-from ..problems.ocp import PathPenalty
-from ..problems.transcription import (collocation_s, costates, equality, pack, state_tau,
+from ..nlp.ocp import PathPenalty
+from ..nlp.transcription import (collocation_s, costates, equality, pack, state_tau,
                                       unpack)
 from ..status import Status
-from .augmented_lagrangian import ALOptions, augmented_lagrangian
-from .condensed import CondensedSecondOrder
-from .newton import DenseKKT, newton_step
+from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
+from ..nlp.condensed import CondensedSecondOrder
+from ..nlp.newton import DenseKKT, newton_step
 from .solution import MinimumTimeSolution
 
 MIN_POINTS = {"LGL": 4, "LG": 3, "LGR": 3}

@@ -128,7 +128,7 @@ class TransferSolution(_CollocatedSolution):
                   "linear" and "two-body" models, regularised anomaly int |h|/r^2 dt for "j2"
     node_s, node_times, node_controls   at the collocation points: anomaly (rad), time since
                   the start (s), LVLH control acceleration u (m/s^2)
-    state_s, state_times, states        at the state rows (see `jaxlpm.problems.transcription`):
+    state_s, state_times, states        at the state rows (see `jaxlpm.nlp.transcription`):
                   anomaly, time, LVLH state (m, m/s; x radial, y along-track, z normal)
     cost          1/2 int |u|^2 dt (m^2/s^3), by the grid's quadrature
     cost_true_anomaly  k^2 * cost (m^2/s^4; Mei 2010 eq. 8's normalisation, k^2 = sqrt(mu/p^3))

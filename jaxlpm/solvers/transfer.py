@@ -13,13 +13,13 @@ import jax.numpy as jnp
 
 from ..problems.relative import (control_scale, cost_scale, lvlh_state, model_state,
                                  transfer_ocp)
-from ..problems.transcription import (collocated_rows, collocation_s, costates, equality,
+from ..nlp.transcription import (collocated_rows, collocation_s, costates, equality,
                                       objective, pack, state_tau, unpack)
 from ..linalg import sequential_when_batched
 from ..status import Status
 from .lq import kkt_law
-from .condensed import CondensedSecondOrder
-from .newton import DenseKKT, NewtonOptions, newton_kkt, newton_step
+from ..nlp.condensed import CondensedSecondOrder
+from ..nlp.newton import DenseKKT, NewtonOptions, newton_kkt, newton_step
 from .solution import TransferSolution
 
 

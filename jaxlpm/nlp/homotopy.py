@@ -30,15 +30,36 @@ reach the target in the time); MAX_ITERATIONS, NONFINITE otherwise.
 
 import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 
 from ..linalg import small_spd_solve
-from ..problems.fuel_optimal import pointwise_control, smoothed_cost
 from ..status import Status
 
 _RUNNING = -1
+
+
+def smoothed_cost(w, eps):
+    """Integrand per u_max of the smoothed cost: w - eps w (1 - w) (paper eq. 31)."""
+    return w - eps * w * (1.0 - w)
+
+
+def throttle(S, eps):
+    """The minimiser w in [0, 1] of smoothed_cost(w) - S w: clip((S - 1 + eps) / (2 eps), 0, 1)
+    (paper eq. 33 with rho = 1 - S)."""
+    return jnp.clip((S - 1.0 + eps) / (2.0 * eps), 0.0, 1.0)
+
+
+def pointwise_control(p, eps):
+    """u / u_max = throttle(|p|) p / |p| for a primer vector p (3,); smooth at p = 0 for
+    eps >= 1 (where it is p / 2 for |p| < 2) and zero there otherwise."""
+    S2 = jnp.dot(p, p)
+    safe = S2 > 0.0
+    S = jnp.sqrt(jnp.where(safe, S2, 1.0))
+    ratio = jnp.where(safe, throttle(S, eps) / S, jnp.where(eps >= 1.0, 0.5 / eps, 0.0))
+    return ratio * p
 
 
 @dataclass(frozen=True)
@@ -118,6 +139,25 @@ def _diverged(nu, E, c):
     return jnp.max(jnp.linalg.norm(primers(nu, E, c), axis=1)) > 1e8
 
 
+class _DualNewtonState(NamedTuple):
+    nu: jax.Array
+    k: jax.Array
+    residual: jax.Array          # max |r(nu)|
+    done: jax.Array
+    failed: jax.Array
+
+
+class _HomotopyState(NamedTuple):
+    nu: jax.Array
+    eps: jax.Array
+    step: jax.Array              # decrease of log10(eps) of the next step
+    steps: jax.Array
+    failed_steps: jax.Array
+    newton_iterations: jax.Array
+    residual: jax.Array
+    status: jax.Array            # _RUNNING until done
+
+
 def newton_dual(nu0, E, c, d, eps, options: HomotopyOptions):
     """Newton's method on r(nu) = 0 from nu0 at one eps. Each iteration tries, side by side (no
     nested loop: cheap under vmap), the steps alpha (J - m I)^-1 (-r) for alpha = 2^-j,
@@ -134,11 +174,10 @@ def newton_dual(nu0, E, c, d, eps, options: HomotopyOptions):
     g_at = jax.vmap(lambda nu: dual(nu, E, c, d, eps))
 
     def cond(s):
-        nu, k, res, done, failed = s
-        return ~done & ~failed & (k < opts.max_newton)
+        return ~s.done & ~s.failed & (s.k < opts.max_newton)
 
     def body(s):
-        nu, k, _, _, _ = s
+        nu, k = s.nu, s.k
         r = residual(nu, E, c, d, eps)
         J = jax.jacfwd(residual)(nu, E, c, d, eps)
         scale = jnp.max(jnp.abs(jnp.diag(J))) + 1e-300
@@ -155,7 +194,7 @@ def newton_dual(nu0, E, c, d, eps, options: HomotopyOptions):
         first = jnp.argmax(ok.T.reshape(-1))               # smallest shift, then longest step
         best = (first % alphas.shape[0]) * shifts.shape[0] + first // alphas.shape[0]
         # near the solution g's round-off hides the ascent: a full Newton step that halves
-        # |r| is taken regardless (as `jaxlpm.solvers.newton` does with its KKT residual)
+        # |r| is taken regardless (as `jaxlpm.nlp.newton` does with its KKT residual)
         full = (jnp.max(jnp.abs(residual(nu + steps[0], E, c, d, eps)))
                 <= 0.5 * jnp.max(jnp.abs(r)))
         step = jnp.where(full, steps[0], trial.reshape(-1, nu.shape[0])[best] - nu)
@@ -164,11 +203,11 @@ def newton_dual(nu0, E, c, d, eps, options: HomotopyOptions):
         res = jnp.max(jnp.abs(residual(nu_next, E, c, d, eps)))
         tiny = jnp.max(jnp.abs(step)) <= 1e-13 * (1.0 + jnp.max(jnp.abs(nu)))
         done = (res <= opts.tol) | ((res <= 1e3 * opts.tol) & tiny)
-        return nu_next, k + 1, res, done, ~good | _diverged(nu_next, E, c)
+        return _DualNewtonState(nu_next, k + 1, res, done, ~good | _diverged(nu_next, E, c))
 
     res0 = jnp.max(jnp.abs(residual(nu0, E, c, d, eps)))
     nu, k, res, done, _ = jax.lax.while_loop(
-        cond, body, (nu0, 0, res0, res0 <= opts.tol, jnp.array(False)))
+        cond, body, _DualNewtonState(nu0, 0, res0, res0 <= opts.tol, jnp.array(False)))
     w = jnp.linalg.norm(controls(nu, E, c, eps), axis=1)
     saturated = jnp.all(w >= 1.0 - 1e-9) | _diverged(nu, E, c)
     return nu, done & jnp.isfinite(res), k, res, saturated
@@ -186,7 +225,7 @@ def _homotopy(E, c, d, nu0, options: HomotopyOptions):
     first = jnp.where((first == _RUNNING) & (eps_min >= 1.0), Status.SUCCESS, first)
 
     def body(s):
-        nu, eps, step, n, fails, its, res, _ = s
+        nu, eps, step, n, fails, its, res, _ = s       # a _HomotopyState
         eps_try = jnp.maximum(eps * 10.0 ** (-step), eps_min)
         nu_t, ok, k, res_t, sat = newton_dual(nu, E, c, d, eps_try, opts)
         nu = jnp.where(ok, nu_t, nu)
@@ -197,13 +236,13 @@ def _homotopy(E, c, d, nu0, options: HomotopyOptions):
              n + 1 >= opts.max_steps],
             [Status.SUCCESS, Status.INFEASIBLE, Status.STALLED, Status.MAX_ITERATIONS],
             _RUNNING).astype(jnp.int32)
-        return (nu, eps_new, step_new, n + 1, fails + (~ok).astype(jnp.int32), its + k,
-                jnp.where(ok, res_t, res), status)
+        return _HomotopyState(nu, eps_new, step_new, n + 1, fails + (~ok).astype(jnp.int32),
+                              its + k, jnp.where(ok, res_t, res), status)
 
-    state = (nu_e, jnp.asarray(1.0, dtype), jnp.asarray(opts.first_step, dtype), 0, 0, k_e,
-             res_e, first)
+    state = _HomotopyState(nu_e, jnp.asarray(1.0, dtype), jnp.asarray(opts.first_step, dtype),
+                           0, 0, k_e, res_e, first)
     nu, eps, _, n, fails, its, res, status = jax.lax.while_loop(
-        lambda s: s[-1] == _RUNNING, body, state)
+        lambda s: s.status == _RUNNING, body, state)
     return HomotopyResult(nu=nu, eps=eps, nu_energy=nu_e, status=status, steps=n,
                           failed_steps=fails, newton_iterations=its, residual=res,
                           energy_residual=res_e)

@@ -7,10 +7,10 @@ Each iteration solves the Newton system of the KKT conditions of min f(z) s.t. c
     [ A         -dc I  ] [ lambda+ ] = - [ c      ],   H = hess_z (f + lambda^T c),  A = dc/dz
 
 H and A come from JAX autodiff, assembled from the collocation structure by
-`jaxlpm.problems.transcription` (per-point blocks: the dynamics and running cost couple only
+`jaxlpm.nlp.transcription` (per-point blocks: the dynamics and running cost couple only
 x_i and u_i, D X is linear). How the system is solved is the `linear_algebra` class's job:
 `DenseKKT` (here: one LU of the whole matrix, any transcription) or
-`jaxlpm.solvers.condensed.CondensedSecondOrder` (the null-space system of the eliminated
+`jaxlpm.nlp.condensed.CondensedSecondOrder` (the null-space system of the eliminated
 defects, fully actuated second-order problems). Regularisation (inertia correction as in
 IPOPT, Waechter & Biegler 2006 §3.1): dw = dc = 0 first; while the solve is not ok, retry with
 dw = max(1e-8 scale, dw_last / 4), then 100x per retry, and dc = 1e-12. `DenseKKT` calls a solve
@@ -33,6 +33,7 @@ iterations.
 
 import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -40,7 +41,7 @@ import jax.numpy as jnp
 from .._validation import check_finite, is_concrete
 from ..implicit import root
 from ..linalg import cholesky_factor, cholesky_factor_solve, sequential_when_batched
-from ..problems.transcription import (equality, equality_jacobian, lagrangian,
+from .transcription import (equality, equality_jacobian, lagrangian,
                                       lagrangian_hessian, n_variables, objective)
 from ..status import Status
 
@@ -75,7 +76,7 @@ class NewtonOptions:
 class NLPResult:
     """Outcome of `newton_kkt`.
 
-    z            decision vector (see `jaxlpm.problems.transcription`)
+    z            decision vector (see `jaxlpm.nlp.transcription`)
     multipliers  lambda of the equality constraints (defects, then boundary)
     status       `Status` code (int32)
     iterations   Newton iterations taken
@@ -189,7 +190,45 @@ def newton_step(ocp, grid, z, linear_algebra=DenseKKT):
     return z + p, lam_new
 
 
-def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT):
+class NewtonReport(NamedTuple):
+    """What a Newton loop reports beside its solution: `Status` code, iterations taken, KKT
+    residual history (one entry per iteration, zeros after) and the largest regularisation."""
+
+    status: jax.Array
+    iterations: jax.Array
+    history: jax.Array
+    regularisation: jax.Array
+
+
+class _RegularisedStep(NamedTuple):
+    step: jax.Array
+    multipliers: jax.Array
+    dw: jax.Array
+    ok: jax.Array
+    attempt: jax.Array
+
+
+class _Backtrack(NamedTuple):
+    alpha: jax.Array
+    merit: jax.Array
+    halvings: jax.Array
+
+
+class _NewtonState(NamedTuple):
+    z: jax.Array
+    lam: jax.Array
+    mu: jax.Array                # l1 merit penalty
+    k: jax.Array                 # iteration
+    history: jax.Array
+    regularisation: jax.Array    # largest dw so far
+    dw_last: jax.Array
+    status: jax.Array            # _RUNNING until done
+
+
+def newton_iterations(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT):
+    """The Newton-KKT iteration from w0 = [z0, lambda0] (see the module docstring): returns
+    (w, `NewtonReport`). Not differentiable by itself (`newton_kkt` wraps it in the implicit
+    function theorem); the augmented Lagrangian runs it as its inner loop."""
     n = n_variables(ocp, grid)
     z0, lam0 = w0[:n], w0[n:]
     f = functools.partial(objective, ocp=ocp, grid=grid)
@@ -213,21 +252,20 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT)
         scale = 1.0 + la.hessian_scale(H)
 
         def cond(s):
-            _, _, _, ok, k = s
-            return (k == 0) | (~ok & (k <= opts.max_regularisations))
+            return (s.attempt == 0) | (~s.ok & (s.attempt <= opts.max_regularisations))
 
         def body(s):
-            _, _, dw, _, k = s
+            k = s.attempt
             first = jnp.maximum(1e-8 * scale, 0.25 * dw_last)
-            dw = jnp.where(k == 0, 0.0, jnp.where(k == 1, first, 100.0 * dw))
+            dw = jnp.where(k == 0, 0.0, jnp.where(k == 1, first, 100.0 * s.dw))
             p, lam_new, ok = la.solve(prep, H, g, c, dw, jnp.where(k == 0, 0.0, 1e-12))
-            return p, lam_new, dw, ok, k + 1
+            return _RegularisedStep(p, lam_new, dw, ok, k + 1)
 
         nan = jnp.full(g.shape, jnp.nan, g.dtype)
-        p, lam_new, dw, ok, _ = jax.lax.while_loop(
-            cond, body, (nan, jnp.full(c.shape, jnp.nan, c.dtype), jnp.zeros((), g.dtype),
-                         jnp.array(False), 0))
-        return p, lam_new, dw, ok
+        s = jax.lax.while_loop(
+            cond, body, _RegularisedStep(nan, jnp.full(c.shape, jnp.nan, c.dtype),
+                                         jnp.zeros((), g.dtype), jnp.array(False), 0))
+        return s.step, s.multipliers, s.dw, s.ok
 
     def line_search(z, lam, g, c, kkt, prep, p, mu):
         """(step, alpha, accepted): the full step if the merit accepts it, else its
@@ -253,15 +291,13 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT)
         p_soc, use_soc = jax.lax.cond(full, lambda _: (p, jnp.array(False)), corrected, None)
 
         def ls_cond(t):
-            alpha, phi, j = t
-            return ~sufficient(phi, alpha) & ~use_soc & (j < opts.max_backtracks)
+            return ~sufficient(t.merit, t.alpha) & ~use_soc & (t.halvings < opts.max_backtracks)
 
         def ls_body(t):
-            alpha, _, j = t
-            alpha = 0.5 * alpha
-            return alpha, merit(z + alpha * p, mu), j + 1
+            alpha = 0.5 * t.alpha
+            return _Backtrack(alpha, merit(z + alpha * p, mu), t.halvings + 1)
 
-        alpha, phi, _ = jax.lax.while_loop(ls_cond, ls_body, (1.0, phi_full, 0))
+        alpha, phi, _ = jax.lax.while_loop(ls_cond, ls_body, _Backtrack(1.0, phi_full, 0))
         accepted = use_soc | sufficient(phi, alpha)
         return jnp.where(use_soc, p_soc, alpha * p), jnp.where(use_soc, 1.0, alpha), accepted
 
@@ -282,7 +318,7 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT)
         return z_next, lam_next, mu, dw, status.astype(jnp.int32)
 
     def body(s):
-        z, lam, mu, k, hist, reg, dw_last, status = s
+        z, lam, mu, k, hist = s.z, s.lam, s.mu, s.k, s.history
         g, c, feas, opt = residuals(z, lam)
         kkt = jnp.maximum(feas, opt)
         hist = hist.at[k].set(kkt)
@@ -303,21 +339,36 @@ def _newton_loop(w0, ocp, grid, options: NewtonOptions, linear_algebra=DenseKKT)
                            Status.STALLED).astype(jnp.int32)
         z, lam, mu, dw, status = jax.lax.cond(
             done, lambda _: (z, lam, mu, jnp.zeros((), z.dtype), final),
-            lambda _: newton_iteration(z, lam, mu, g, c, kkt, dw_last), None)
+            lambda _: newton_iteration(z, lam, mu, g, c, kkt, s.dw_last), None)
         k_next = jnp.where(done, k, k + 1)
-        return z, lam, mu, k_next, hist, jnp.maximum(reg, dw), dw, status
+        return _NewtonState(z, lam, mu, k_next, hist, jnp.maximum(s.regularisation, dw), dw,
+                            status)
 
     hist0 = jnp.zeros(opts.max_iterations + 1, z0.dtype)
     zero = jnp.zeros((), z0.dtype)
-    state = (z0, lam0, zero, 0, hist0, zero, zero, jnp.asarray(_RUNNING, jnp.int32))
-    z, lam, _, k, hist, reg, _, status = jax.lax.while_loop(
-        lambda s: s[-1] == _RUNNING, body, state)
-    return jnp.concatenate([z, lam]), (status, k, hist, reg)
+    state = _NewtonState(z0, lam0, zero, 0, hist0, zero, zero, jnp.asarray(_RUNNING, jnp.int32))
+    s = jax.lax.while_loop(lambda s: s.status == _RUNNING, body, state)
+    return jnp.concatenate([s.z, s.lam]), NewtonReport(s.status, s.k, s.history,
+                                                       s.regularisation)
 
 
-def _continuation_loop(loop, w0, ocp, grid, options: NewtonOptions, homotopy):
-    """Solve the problem from w0 by `loop(w, ocp, grid, options) -> (w, (status, iterations,
-    history, regularisation))` (`_newton_loop` or the reduced-space loop); if that fails, follow homotopy(ocp, t) from t =
+class _ContinuationState(NamedTuple):
+    w_start: jax.Array           # starting point of the next solve (the predictor)
+    t_try: jax.Array             # homotopy parameter of the next solve
+    t_good: jax.Array            # last converged t, and its solution
+    w_good: jax.Array
+    t_prev: jax.Array            # the converged t before it, and its solution
+    w_prev: jax.Array
+    attempts: jax.Array
+    iterations: jax.Array        # Newton iterations over all solves
+    w_out: jax.Array             # the result so far: the direct attempt's, or t = 1's
+    report: NewtonReport
+    done: jax.Array
+
+
+def continuation(loop, w0, ocp, grid, options: NewtonOptions, homotopy):
+    """Solve the problem from w0 by `loop(w, ocp, grid, options) -> (w, NewtonReport)`
+    (`newton_iterations`); if that fails, follow homotopy(ocp, t) from t =
     continuation_start (where w0 is nearly exact) to t = 1 (the problem): t doubles after a
     success and bisects back towards the last converged t after a failure, and each solve
     starts from the secant predictor through the last two converged solutions (w0 standing
@@ -329,46 +380,49 @@ def _continuation_loop(loop, w0, ocp, grid, options: NewtonOptions, homotopy):
     one = jnp.ones((), w0.dtype)
 
     def body(s):
-        w_start, t_try, t_good, w_good, t_prev, w_prev, attempts, total, w_out, aux_out, _ = s
-        w, (status, k, hist, reg) = loop(w_start, homotopy(ocp, t_try), grid, options)
-        ok = status == Status.SUCCESS
-        first = attempts == 0
-        reached = ok & (t_try >= 1.0)
+        w, report = loop(s.w_start, homotopy(ocp, s.t_try), grid, options)
+        ok = report.status == Status.SUCCESS
+        first = s.attempts == 0
+        reached = ok & (s.t_try >= 1.0)
         keep = first | reached
-        w_out = jnp.where(keep, w, w_out)
-        aux_out = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b),
-                                         (status, hist, reg), aux_out)
+        w_out = jnp.where(keep, w, s.w_out)
+        report_out = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b), report,
+                                            s.report)
         advance = ok & ~first
-        t_prev = jnp.where(advance, t_good, jnp.where(first, 0.0, t_prev))
-        w_prev = jnp.where(advance, w_good, jnp.where(first, w0, w_prev))
-        t_good = jnp.where(advance, t_try, jnp.where(first, 0.0, t_good))
-        w_good = jnp.where(advance, w, jnp.where(first, w0, w_good))
+        t_prev = jnp.where(advance, s.t_good, jnp.where(first, 0.0, s.t_prev))
+        w_prev = jnp.where(advance, s.w_good, jnp.where(first, w0, s.w_prev))
+        t_good = jnp.where(advance, s.t_try, jnp.where(first, 0.0, s.t_good))
+        w_good = jnp.where(advance, w, jnp.where(first, w0, s.w_good))
         t_next = jnp.where(first, options.continuation_start,
-                           jnp.where(ok, jnp.minimum(2.0 * t_try, 1.0), 0.5 * (t_good + t_try)))
+                           jnp.where(ok, jnp.minimum(2.0 * s.t_try, 1.0),
+                                     0.5 * (t_good + s.t_try)))
         # secant predictor through the last two converged solutions (w0 is the t -> 0 one)
         slope = (w_good - w_prev) / jnp.where(t_good > t_prev, t_good - t_prev, 1.0)
         w_next = w_good + jnp.where(t_good > t_prev, t_next - t_good, 0.0) * slope
-        done = reached | (attempts >= options.max_continuation) | (first & ok)
-        return (w_next, t_next, t_good, w_good, t_prev, w_prev, attempts + 1, total + k, w_out,
-                aux_out, done)
+        done = reached | (s.attempts >= options.max_continuation) | (first & ok)
+        return _ContinuationState(w_next, t_next, t_good, w_good, t_prev, w_prev,
+                                  s.attempts + 1, s.iterations + report.iterations, w_out,
+                                  report_out, done)
 
-    aux0 = (jnp.asarray(_RUNNING, jnp.int32), jnp.zeros(options.max_iterations + 1, w0.dtype),
-            jnp.zeros((), w0.dtype))
+    report0 = NewtonReport(jnp.asarray(_RUNNING, jnp.int32), jnp.zeros((), jnp.int32),
+                           jnp.zeros(options.max_iterations + 1, w0.dtype),
+                           jnp.zeros((), w0.dtype))
     zero = 0.0 * one
-    state = (w0, one, zero, w0, zero, w0, 0, 0, w0, aux0, jnp.array(False))
-    *_, total, w, (status, hist, reg), _ = jax.lax.while_loop(lambda s: ~s[-1], body, state)
-    return w, (status, total, hist, reg)
+    state = _ContinuationState(w0, one, zero, w0, zero, w0, 0, jnp.zeros((), jnp.int32), w0,
+                               report0, jnp.array(False))
+    s = jax.lax.while_loop(lambda s: ~s.done, body, state)
+    return s.w_out, s.report._replace(iterations=s.iterations)
 
 
 @functools.lru_cache(maxsize=None)
 def _solver(options: NewtonOptions, homotopy=None, linear_algebra=DenseKKT):
-    loop = functools.partial(_newton_loop, linear_algebra=linear_algebra)
+    loop = functools.partial(newton_iterations, linear_algebra=linear_algebra)
 
     @root(kkt_residual, has_aux=True, zero_nonfinite=True)
     def solve(w0, ocp, grid):
         if homotopy is None:
             return loop(w0, ocp, grid, options)
-        return _continuation_loop(loop, w0, ocp, grid, options, homotopy)
+        return continuation(loop, w0, ocp, grid, options, homotopy)
     return solve
 
 
@@ -378,13 +432,13 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
 
     linear_algebra: how each Newton-KKT system is solved: `DenseKKT` (default, any
     transcription) or a structured class with the same methods, e.g.
-    `jaxlpm.solvers.condensed.CondensedSecondOrder` (fully actuated second-order problems): the same
+    `jaxlpm.nlp.condensed.CondensedSecondOrder` (fully actuated second-order problems): the same
     steps, iterates and statuses, up to round-off.
 
     homotopy: optional `(ocp, t) -> ocp`, a module-level function (it keys the compiled
     solver) embedding the problem in a family with t = 1 the problem itself and t -> 0 one
     that z0 solves nearly exactly; when the direct solve fails, Newton follows the family
-    from t = options.continuation_start to 1 (`_continuation_loop`).
+    from t = options.continuation_start to 1 (`continuation`).
     Returns an `NLPResult`; z and the multipliers are differentiable with respect to the
     problem's array leaves (params, node_data, s0, sf) by the implicit function theorem.
     Path constraints are not handled here (the augmented-Lagrangian solver does them).
@@ -405,11 +459,11 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
     if multipliers0 is None:          # a starting point: not differentiated
         fixed = jax.lax.stop_gradient((ocp, z0))
         multipliers0 = linear_algebra(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
-    w, (status, k, hist, reg) = _solver(options, homotopy, linear_algebra)(
+    w, report = _solver(options, homotopy, linear_algebra)(
         jnp.concatenate([z0, multipliers0]), ocp, grid)
     z, lam = w[:n], w[n:]
     res = kkt_residual(jax.lax.stop_gradient(w), ocp, grid)
-    return NLPResult(z=z, multipliers=lam, status=status, iterations=k,
+    return NLPResult(z=z, multipliers=lam, status=report.status, iterations=report.iterations,
                      constraint_residual=jnp.max(jnp.abs(res[n:])),
                      stationarity_residual=jnp.max(jnp.abs(res[:n])),
-                     history=hist, regularisation=reg)
+                     history=report.history, regularisation=report.regularisation)

@@ -38,7 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..linalg import cholesky_solve, complete_qr, small_triangular_solve
-from ..problems.transcription import (collocated_rows, equality, lagrangian, n_state_rows,
+from .transcription import (collocated_rows, equality, lagrangian, n_state_rows,
                                       n_variables, objective, point_hessians,
                                       point_indices, pointwise_jacobian, support_rows,
                                       unpack)

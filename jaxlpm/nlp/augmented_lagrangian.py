@@ -5,7 +5,7 @@ Birgin & Martinez 2014 "Practical augmented Lagrangian methods", Alg. 4.1).
     min f(z)  s.t.  c(z) = 0 (defects, boundary),  G(z) <= 0,  H(z) = 0 (path),  B(sf) <= 0
 
 The equalities c stay hard in every inner problem, solved by Newton-KKT
-(`jaxlpm.solvers.newton`); the path values G, H at the collocation points and the final-s
+(`jaxlpm.nlp.newton`); the path values G, H at the collocation points and the final-s
 bounds B enter its objective through the PHR terms (`PathPenalty`). Outer iteration k:
 
     z_k        = argmin f + PHR(G, H, B; mu, nu, rho)  s.t. c = 0   (warm-started Newton-KKT)
@@ -28,16 +28,17 @@ complementarity makes it smooth at the solution), never through the iterations.
 
 import functools
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 
 from .._validation import check_finite, is_concrete
 from ..implicit import root
-from ..problems.ocp import PathPenalty
-from ..problems.transcription import equality, n_variables, objective, path_values
+from .ocp import PathPenalty
+from .transcription import equality, n_variables, objective, path_values
 from ..status import Status
-from .newton import DenseKKT, NewtonOptions, _newton_loop
+from .newton import DenseKKT, NewtonOptions, newton_iterations
 
 _RUNNING = -1
 
@@ -140,6 +141,28 @@ def al_kkt_residual(w, ocp, grid):
                             jnp.minimum(-G, mu).reshape(-1), jnp.minimum(-B, mu_b)])
 
 
+class ALReport(NamedTuple):
+    """What the outer loop reports beside its solution."""
+
+    status: jax.Array
+    inner_status: jax.Array      # of the last inner Newton solve
+    outer_iterations: jax.Array
+    inner_iterations: jax.Array
+    history: jax.Array           # path violation per outer iteration
+    rho: jax.Array               # the final penalty parameter
+
+
+class _OuterState(NamedTuple):
+    wz: jax.Array                # [z, lambda] of the last inner solve
+    penalty: PathPenalty         # multipliers and rho of the next subproblem
+    k: jax.Array                 # outer iteration
+    inner_iterations: jax.Array
+    progress: jax.Array          # the last solved subproblem's progress measure
+    history: jax.Array           # path violation per outer iteration
+    inner_status: jax.Array
+    status: jax.Array            # _RUNNING until done
+
+
 def _outer_loop(w0, rho0, ocp, grid, options: ALOptions, linear_algebra=DenseKKT):
     n, m = _sizes(ocp, grid)[:2]
     z0, lam0, mu0, nu0, mub0 = _split(w0, ocp, grid)
@@ -148,9 +171,10 @@ def _outer_loop(w0, rho0, ocp, grid, options: ALOptions, linear_algebra=DenseKKT
     penalty0 = PathPenalty(mu0, nu0, mub0, jnp.asarray(rho0, dtype))
 
     def body(s):
-        wz, pen, k, inner_total, v_prev, hist, _, _ = s
-        w_in, (st_in, it_in, _, _) = _newton_loop(wz, ocp.replace(penalty=pen), grid, opts.inner,
-                                                  linear_algebra)
+        pen, k, v_prev, hist = s.penalty, s.k, s.progress, s.history
+        w_in, inner = newton_iterations(s.wz, ocp.replace(penalty=pen), grid, opts.inner,
+                                        linear_algebra)
+        st_in = inner.status
         z = w_in[:n]
         G, H, B = path_values(z, ocp, grid)
         rho = pen.rho
@@ -180,18 +204,20 @@ def _outer_loop(w0, rho0, ocp, grid, options: ALOptions, linear_algebra=DenseKKT
             [Status.SUCCESS, Status.NONFINITE, Status.INFEASIBLE, Status.MAX_ITERATIONS],
             _RUNNING).astype(jnp.int32)
         pen_next = PathPenalty(mu, nu, mu_b, rho_next)
-        w_next = jnp.where(finite, w_in, wz)
-        return (w_next, pen_next, k + 1, inner_total + it_in,
-                jnp.where(solved, progress, v_prev), hist,
-                st_in.astype(jnp.int32), status)
+        w_next = jnp.where(finite, w_in, s.wz)
+        return _OuterState(w_next, pen_next, k + 1, s.inner_iterations + inner.iterations,
+                           jnp.where(solved, progress, v_prev), hist,
+                           st_in.astype(jnp.int32), status)
 
     hist0 = jnp.zeros(opts.max_outer, dtype)
-    state = (jnp.concatenate([z0, lam0]), penalty0, 0, 0, jnp.asarray(jnp.inf, dtype), hist0,
-             jnp.asarray(_RUNNING, jnp.int32), jnp.asarray(_RUNNING, jnp.int32))
-    wz, pen, k, inner_total, _, hist, st_in, status = jax.lax.while_loop(
-        lambda s: s[-1] == _RUNNING, body, state)
-    w = jnp.concatenate([wz, pen.inequality.reshape(-1), pen.equality.reshape(-1), pen.bounds])
-    return w, (status, st_in, k, inner_total, hist, pen.rho)
+    state = _OuterState(jnp.concatenate([z0, lam0]), penalty0, 0, 0,
+                        jnp.asarray(jnp.inf, dtype), hist0, jnp.asarray(_RUNNING, jnp.int32),
+                        jnp.asarray(_RUNNING, jnp.int32))
+    s = jax.lax.while_loop(lambda s: s.status == _RUNNING, body, state)
+    pen = s.penalty
+    w = jnp.concatenate([s.wz, pen.inequality.reshape(-1), pen.equality.reshape(-1),
+                         pen.bounds])
+    return w, ALReport(s.status, s.inner_status, s.k, s.inner_iterations, s.history, pen.rho)
 
 
 @functools.lru_cache(maxsize=None)
