@@ -63,8 +63,8 @@ def main(argv=None):
     for scheme in ("LGL", "LG", "LGR"):
         for n in args.points:
             grid = lpm.make_grid(scheme, n)
-            res = lpm.newton_kkt(ocp, grid, jnp.zeros(tr.n_variables(ocp, grid)))
-            lam = np.asarray(tr.costates(res.multipliers, ocp, grid))
+            res = lpm.nlp.newton_kkt(ocp, grid, jnp.zeros(tr.n_variables(ocp, grid)))
+            lam = np.asarray(tr.costates(res.z, res.multipliers, ocp, grid))
             exact = analytic_costate(np.asarray(tr.collocation_s(ocp, grid)))
             err = np.max(np.abs(lam - exact), axis=1) / np.max(np.abs(exact))
             print(f"{scheme:<7}{n:>7}{lpm.Status(int(res.status)).name:>8}{err.max():>14.2e}"

@@ -1,8 +1,14 @@
 """jaxlpm: pseudospectral optimal spacecraft relative-orbit transfers in JAX.
 
 Frames and units at the interface: LVLH relative states [x, y, z, vx, vy, vz] in m and m/s
-(x radial outward, y along-track, z orbit normal), controls in m/s^2, times in s, angles in
-rad. float64 only: enable it with jax.config.update("jax_enable_x64", True).
+(x radial outward, y along-track, z orbit normal), controls in m/s^2, times in s since the
+start of the transfer, angles in rad. float64 only: enable it with
+jax.config.update("jax_enable_x64", True).
+
+A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTransfer`,
+`MinimumTimeTransfer`, `FuelOptimalTransfer`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points;
+`segmented_lgr`), `solve(problem, grid)` -> `Solution`, `verify.fly(solution)`, `batch`
+(sweeps, Monte Carlo), `lambert`, `Status`.
 """
 
 from . import _cpu_runtime
@@ -11,30 +17,31 @@ _cpu_runtime.apply()
 
 from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
+from .collocation.segments import (SegmentedMesh, aligned_breaks, segmented_lgr,  # noqa: E402
+                                   uniform_breaks)
 from .orbits import KeplerOrbit  # noqa: E402
-from .nlp import OptimalControlProblem  # noqa: E402
+from .orbits.lambert import LambertSolution, lambert  # noqa: E402
+from .nlp import ALOptions, HomotopyOptions, NewtonOptions, OptimalControlProblem  # noqa: E402
 from .problems import EnergyOptimalTransfer, MinimumTimeTransfer  # noqa: E402
-from .solvers import (ALOptions, MinimumTimeSolution, NewtonOptions, Solution,  # noqa: E402
-                      TransferSolution, augmented_lagrangian, min_time_transfer, newton_kkt,
-                      solve)
+from .problems.fuel_optimal import FuelOptimalTransfer  # noqa: E402
+from .status import Status, describe  # noqa: E402
+from .solution import Solution, SolveError  # noqa: E402
+from .solvers import solve  # noqa: E402
+from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # noqa: E402
+                                   refine_fuel_optimal, switching_function, switching_times)
 from .solvers.lqr import Flight, finite_horizon_lqr, hcw_lqr, infinite_horizon_flight  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
-from .status import Status, describe  # noqa: E402
-from .collocation.segments import SegmentedMesh, segmented_lgr  # noqa: E402
-from .problems.fuel_optimal import FuelOptimalTransfer  # noqa: E402
-from .solvers.fuel_optimal import (FuelOptimalSolution, fuel_optimal_transfer,  # noqa: E402
-                                   indirect_fuel_optimal, refine_fuel_optimal)
-from .nlp.homotopy import HomotopyOptions  # noqa: E402
+from . import batch, nlp, verify  # noqa: E402
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
-    "EnergyOptimalTransfer", "Grid", "KeplerOrbit", "NewtonOptions", "OptimalControlProblem",
-    "Solution", "Status", "TransferSolution", "constants", "describe", "lg", "lgl", "lgr",
-    "make_grid", "newton_kkt", "solve", "__version__",
-    "ALOptions", "MinimumTimeSolution", "MinimumTimeTransfer", "augmented_lagrangian",
-    "min_time_transfer",
-    "CareSolution", "Flight", "care", "finite_horizon_lqr", "hcw_lqr", "infinite_horizon_flight",
-    "FuelOptimalSolution", "FuelOptimalTransfer", "HomotopyOptions", "SegmentedMesh",
-    "fuel_optimal_transfer", "indirect_fuel_optimal", "refine_fuel_optimal", "segmented_lgr",
+    "ALOptions", "CareSolution", "EnergyOptimalTransfer", "Flight", "FuelOptimalTransfer",
+    "Grid", "HomotopyOptions", "KeplerOrbit", "LambertSolution", "MinimumTimeTransfer",
+    "NewtonOptions", "OptimalControlProblem", "SegmentedMesh", "Solution", "SolveError",
+    "Status", "__version__", "aligned_breaks", "batch", "burn_arcs", "care", "constants", "describe",
+    "finite_horizon_lqr", "hcw_lqr", "indirect_fuel_optimal", "infinite_horizon_flight",
+    "lambert", "lg", "lgl", "lgr", "make_grid", "nlp", "primer", "refine_fuel_optimal",
+    "segmented_lgr", "solve", "switching_function", "switching_times", "uniform_breaks",
+    "verify",
 ]

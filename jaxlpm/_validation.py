@@ -1,8 +1,11 @@
 """Input checks at the Python boundary (ValueError) and their traced counterparts (status)."""
 
 import dataclasses
+import functools
+from typing import NamedTuple
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 
@@ -61,3 +64,71 @@ def coerce_sequences(obj) -> None:
             except (TypeError, ValueError) as err:
                 raise ValueError(f"{f.name} must be numeric, got {value!r:.80}") from err
             object.__setattr__(obj, f.name, arr)
+
+
+class Rule(NamedTuple):
+    """One input check: the field it is about (a dotted path such as "orbit.e"), its in-graph
+    flag (True where the input is allowed) and what is allowed, in words with units."""
+
+    name: str
+    ok: object
+    allowed: str
+
+
+class Checked:
+    """Input checks written once, for a frozen dataclass of array leaves (a problem, an orbit).
+
+    A class lists its checks once, in `rules()` (values: `Rule`s of in-graph flags) and
+    `static_rules()` (what is known at trace time: types, shapes, static fields; raises), and
+    names a harmless valid instance in `harmless()`. From them:
+      validate()      concrete input: the static rules, then ValueError naming the first
+                      `Rule` that fails, its value and what is allowed;
+      validity()      traced input: the conjunction of the rules' flags (status INVALID_INPUT
+                      where False);
+      sanitized(ok)   every leaf replaced by the harmless instance's where ok is False, so an
+                      invalid member of a batch computes finite numbers (then zeroed).
+    `check()` does what fits the input: everything when concrete, the static rules when traced.
+    """
+
+    def rules(self) -> list:
+        raise NotImplementedError
+
+    def static_rules(self) -> None:
+        """Raise ValueError for what is wrong at trace time too (types, shapes)."""
+
+    def harmless(self):
+        raise NotImplementedError
+
+    def validate(self) -> None:
+        self.static_rules()
+        for rule in self.rules():
+            if not bool(rule.ok):
+                raise ValueError(f"{rule.name} must be {rule.allowed}, got "
+                                 f"{_field(self, rule.name)}")
+
+    def validity(self):
+        flags = [jnp.all(rule.ok) for rule in self.rules()]
+        return functools.reduce(jnp.logical_and, flags, jnp.array(True))
+
+    def sanitized(self, valid):
+        safe = self.harmless()
+        return jax.tree_util.tree_map(
+            lambda x, s: jnp.where(valid, x, jnp.asarray(s, jnp.result_type(x))), self, safe)
+
+    def check(self) -> None:
+        if is_concrete(self):
+            self.validate()
+        else:
+            self.static_rules()
+
+
+def _field(obj, dotted: str):
+    for part in dotted.split("."):
+        obj = getattr(obj, part, None)
+    return obj
+
+
+def check_scalars(owner: str, obj, names) -> None:
+    """ValueError unless each named field of obj is a real scalar."""
+    for name in names:
+        check_shape(f"{owner}{name}", getattr(obj, name), ())

@@ -16,6 +16,9 @@ class Status(enum.IntEnum):
     NOT_DETECTABLE = 7
     INFEASIBLE = 8
 
+    def __str__(self) -> str:
+        return self.name
+
     @property
     def message(self) -> str:
         return _MESSAGES[self]

@@ -12,13 +12,16 @@ ALLOWED = {
     "orbits": set(),
     "nlp": {"collocation"},
     "dynamics": {"orbits"},
-    "problems": {"nlp", "dynamics", "orbits", "collocation"},
-    "solvers": {"problems", "nlp", "dynamics", "orbits", "collocation"},
-    "verify": {"problems", "nlp", "dynamics", "orbits", "collocation"},
-    "batch": {"solvers", "verify", "problems", "nlp", "dynamics", "orbits", "collocation"},
-    "io": {"solvers", "verify", "problems", "nlp", "dynamics", "orbits", "collocation"},
-    "plot": {"solvers", "verify", "problems", "nlp", "dynamics", "orbits", "collocation"},
+    "solution": {"dynamics", "orbits", "collocation"},
+    "problems": {"solution", "nlp", "dynamics", "orbits", "collocation"},
+    "solvers": {"problems", "solution", "nlp", "dynamics", "orbits", "collocation"},
+    "verify": {"problems", "solution", "nlp", "dynamics", "orbits", "collocation"},
 }
+BELOW_CASES = {"solvers", "verify", "problems", "solution", "nlp", "dynamics", "orbits",
+               "collocation"}
+ALLOWED["batch"] = BELOW_CASES
+ALLOWED["io"] = BELOW_CASES
+ALLOWED["plot"] = BELOW_CASES
 ALLOWED["cases"] = set(ALLOWED) | {"batch"}
 
 

@@ -23,8 +23,7 @@ from jaxlpm.problems import MinimumTimeTransfer
 from jaxlpm.problems.min_time import duration_lower_bound, min_time_ocp, state_scale
 from jaxlpm.nlp.transcription import collocated_rows, pack, state_tau, unpack
 from jaxlpm.nlp import augmented_lagrangian
-from jaxlpm.verify import (control_interpolant, min_time_shooting, propagate_linear,
-                           terminal_error)
+from jaxlpm.verify import min_time_shooting
 
 # after jaxlpm, which sets one OpenBLAS thread unless scipy has already loaded it (its pool
 # contends with XLA's: the dense KKT factorisations of these solves run ~10x slower)
@@ -53,7 +52,7 @@ def smooth_problem(thrust=1.0, bounds=(0.0, np.inf)):
 def solve():
     """One compiled solver (K = 16 LG) for every problem of the same structure."""
     grid = lpm.lg(K)
-    return jax.jit(lambda p: lpm.min_time_transfer(p, grid)).lower(
+    return jax.jit(lambda p: lpm.solve(p, grid, throw=False)).lower(
         smooth_problem()).compile(QUICK)
 
 
@@ -67,37 +66,37 @@ def smooth(solve):
 def shoot(smooth):
     """Shooting on the necessary conditions, compiled once for every problem and seed."""
     prob, sol = smooth
-    return jax.jit(min_time_shooting).lower(prob, sol.costates[0], sol.duration).compile(QUICK)
+    return jax.jit(min_time_shooting).lower(prob, sol.stats["costates_scaled"][0], sol.duration).compile(QUICK)
 
 
 @pytest.fixture(scope="module")
 def shooting(smooth, shoot):
     prob, sol = smooth
-    return shoot(prob, sol.costates[0], sol.duration)
+    return shoot(prob, sol.stats["costates_scaled"][0], sol.duration)
 
 
 def test_min_time_converges_with_unit_direction(smooth):
     prob, sol = smooth
     assert int(sol.status) == Status.SUCCESS, sol.message
     # the AL stops at path violation <= 1e-9 (ALOptions.tol_path): |u|^2 - 1 at the nodes
-    assert float(sol.path_residual) <= 1e-9
-    norms = np.linalg.norm(np.asarray(sol.node_directions), axis=1)
+    assert float(sol.stats["path_residual"]) <= 1e-9
+    norms = np.linalg.norm(np.asarray(sol.stats["node_directions"]), axis=1)
     np.testing.assert_allclose(norms, 1.0, atol=1e-9)
-    assert float(sol.constraint_residual) <= 1e-10
-    assert float(sol.stationarity_residual) <= 1e-8
+    assert float(sol.stats["constraint_residual"]) <= 1e-10
+    assert float(sol.stats["stationarity_residual"]) <= 1e-8
     # the collocated end states are the requested ones (boundary rows are exact constraints)
-    np.testing.assert_allclose(np.asarray(sol.states[0]), np.asarray(prob.x0), atol=1e-8)
-    np.testing.assert_allclose(np.asarray(sol.states[-1]), np.asarray(prob.xf), atol=1e-8)
+    np.testing.assert_allclose(np.asarray(sol.node_states[0]), np.asarray(prob.x0), atol=1e-8)
+    np.testing.assert_allclose(np.asarray(sol.node_states[-1]), np.asarray(prob.xf), atol=1e-8)
 
 
 def test_pontryagin_conditions_at_lg_points(smooth):
     """Costate estimates satisfy the minimum principle: u = -lambda_v / |lambda_v| and the
     Hamiltonian lambda . F = -1 (autonomous, cost s_f - s0) at every LG point."""
     prob, sol = smooth
-    lam = np.asarray(sol.costates)
+    lam = np.asarray(sol.stats["costates_scaled"])
     params = min_time_ocp(prob, sol.duration).params
-    X = np.asarray(sol.states / state_scale(prob))[collocated_rows(lpm.lg(K))]
-    U = np.asarray(sol.node_directions)
+    X = np.asarray(sol.node_states / state_scale(prob))[collocated_rows(lpm.lg(K))]
+    U = np.asarray(sol.stats["node_directions"])
     F = X @ np.asarray(hcw_matrix(1.0)).T
     F[:, 3:] += float(params["accel"]) * U
     lv = lam[:, 3:]
@@ -147,14 +146,12 @@ def test_flown_renormalised_direction_hits_target(smooth):
     CW equations (e = 0 chief) reaches x_f: the interpolation error of a smooth control on
     16 LG points (~1e-6 relative to the 30 m transfer here)."""
     prob, sol = smooth
-    control = control_interpolant(sol, magnitude=prob.acceleration)
-    f = jnp.linspace(sol.s0, sol.sf, 7)
-    np.testing.assert_allclose(np.linalg.norm(np.asarray(jax.vmap(control)(f)), axis=1),
+    t = jnp.linspace(0.0, sol.duration, 7)
+    np.testing.assert_allclose(np.linalg.norm(np.asarray(sol.controls(t)), axis=1),
                                float(prob.acceleration), rtol=1e-12)
-    _, xs, ok = quick(lambda s, c: propagate_linear(s.problem.orbit, s.problem.x0, s.duration,
-                                                    c, 11), sol, control)
-    assert bool(ok)
-    miss = np.asarray(terminal_error(xs, prob.xf))
+    flight = lpm.verify.fly(sol, n_save=11)
+    assert bool(flight.success)
+    miss = np.asarray(flight.terminal_error)
     assert miss[0] < 1e-3 and miss[1] < 1e-5, miss
 
 
@@ -166,7 +163,7 @@ def test_infeasible_duration_bound_is_reported(smooth, solve):
     assert int(bad.status) == Status.INFEASIBLE, bad.message
     assert np.isfinite(float(bad.duration))
     assert np.all(np.isfinite(np.asarray(bad.node_controls)))
-    assert float(bad.path_residual) > 1e-3
+    assert float(bad.stats["path_residual"]) > 1e-3
 
 
 def test_traced_bad_input_gives_invalid_input(smooth, solve):
@@ -181,7 +178,7 @@ def test_vmap_over_thrust(smooth):
     prob, sol = smooth
     thrusts = jnp.array([1.0, 1.3])
     grid = lpm.lg(K)
-    batch = quick(jax.vmap(lambda T: lpm.min_time_transfer(prob.replace(thrust=T), grid)),
+    batch = quick(jax.vmap(lambda T: lpm.solve(prob.replace(thrust=T), grid, throw=False)),
                   thrusts)
     assert list(np.asarray(batch.status)) == [Status.SUCCESS, Status.SUCCESS]
     # same problem, same iterations: the batched member equals the single solve to round-off
@@ -196,7 +193,7 @@ def test_duration_gradient_matches_finite_differences(smooth, solve):
     grid = lpm.lg(K)
 
     def tf(T):
-        return lpm.min_time_transfer(prob.replace(thrust=T), grid).duration
+        return lpm.solve(prob.replace(thrust=T), grid, throw=False).duration
 
     g = float(quick(jax.grad(tf), jnp.asarray(1.0)))
     h = 1e-4
@@ -213,7 +210,7 @@ def test_bad_input_raises():
         (prob.replace(orbit=prob.orbit.replace(e=jnp.asarray(0.1))), grid, "circular"),
         (prob.replace(thrust=jnp.asarray(0.0)), grid, "thrust must be positive"),
         (prob.replace(mass=jnp.asarray(-1.0)), grid, "mass must be positive"),
-        (prob.replace(xf=prob.x0), grid, "x0 equals xf"),
+        (prob.replace(xf=prob.x0), grid, "different from x0"),
         (prob.replace(x0=prob.x0.at[0].set(jnp.nan)), grid, "x0"),
         (prob.replace(duration_bounds=jnp.array([100.0, 50.0])), grid, "t_min < t_max"),
         (prob, lpm.lg(2), "at least 3"),
@@ -221,7 +218,7 @@ def test_bad_input_raises():
     ]
     for p, g, match in cases:
         with pytest.raises(ValueError, match=match):
-            lpm.min_time_transfer(p, g)
+            lpm.solve(p, g)
 
 
 # ------------------------------------------- thrust levels and duration bounds (issue 17)
@@ -233,7 +230,7 @@ K_LOW = 64          # LG points for the 0.01 N transfer: its 5 orbits need sever
 def solve_low():
     """One compiled solver on K_LOW LG points."""
     grid = lpm.lg(K_LOW)
-    return jax.jit(lambda p: lpm.min_time_transfer(p, grid)).lower(
+    return jax.jit(lambda p: lpm.solve(p, grid, throw=False)).lower(
         smooth_problem()).compile(QUICK)
 
 
@@ -254,10 +251,10 @@ def test_thrust_levels_converge_on_a_resolving_grid(smooth, solve_low, low_thrus
     assert abs(float(fast.duration) - float(sol.duration)) < 1e-6
     prob, low = low_thrust
     assert int(low.status) == Status.SUCCESS, low.message
-    assert float(low.path_residual) <= 1e-9
-    np.testing.assert_allclose(np.linalg.norm(np.asarray(low.node_directions), axis=1), 1.0,
+    assert float(low.stats["path_residual"]) <= 1e-9
+    np.testing.assert_allclose(np.linalg.norm(np.asarray(low.stats["node_directions"]), axis=1), 1.0,
                                atol=1e-9)
-    np.testing.assert_allclose(np.asarray(low.states[-1]), np.asarray(prob.xf), atol=1e-8)
+    np.testing.assert_allclose(np.asarray(low.node_states[-1]), np.asarray(prob.xf), atol=1e-8)
 
 
 def test_low_thrust_minimum_time_confirmed_by_shooting(low_thrust, shoot):
@@ -267,7 +264,7 @@ def test_low_thrust_minimum_time_confirmed_by_shooting(low_thrust, shoot):
     algebraically here: t_f - t_f* is 20, 1.8 and 0.04 s at K = 32, 64, 96 (6e-5 relative at
     64); 2e-4 leaves margin. The lower bound holds below t_f*."""
     prob, sol = low_thrust
-    shot = shoot(prob, sol.costates[0], sol.duration)
+    shot = shoot(prob, sol.stats["costates_scaled"][0], sol.duration)
     assert int(shot.status) == Status.SUCCESS
     t_star = float(shot.duration)
     assert abs(float(sol.duration) - t_star) < 2e-4 * t_star
@@ -306,7 +303,7 @@ def test_too_short_duration_bound_is_infeasible(smooth, solve):
     t_max = 0.5 * (t_lb + float(sol.duration))
     bad = solve(prob.replace(duration_bounds=jnp.array([0.0, t_max])))
     assert int(bad.status) == Status.INFEASIBLE, bad.message
-    assert float(bad.path_multipliers.bounds[1]) > 0.0
+    assert float(bad.stats["path_multipliers"].bounds[1]) > 0.0
 
 
 def test_lower_bound_holds_on_flown_arcs(smooth):
@@ -406,7 +403,7 @@ def test_newton_refuses_path_constraints():
                                 params={"umax": jnp.asarray(5.0)}, path=_bound)
     z0 = pack(jnp.zeros((state_tau(grid).shape[0], 2)), jnp.zeros((grid.n, 1)), ocp.sf, ocp)
     with pytest.raises(ValueError, match="augmented_lagrangian"):
-        lpm.newton_kkt(ocp, grid, z0)
+        lpm.nlp.newton_kkt(ocp, grid, z0)
 
 
 # ------------------------------------------------------------------ the duan case's data

@@ -11,7 +11,7 @@ import pytest
 jax.config.update("jax_enable_x64", True)
 
 import jaxlpm as lpm  # noqa: E402
-from jaxlpm.batch import (ExecutionErrors, Family, converged_statistics, delta_v,  # noqa: E402
+from jaxlpm.batch import (ExecutionErrors, Family, converged_statistics,  # noqa: E402
                           dispersion_parameters, execution_draws, execution_monte_carlo,
                           mei2010_dispersion, replan_monte_carlo, sensitivity_family, sweep,
                           transfer_family)
@@ -26,11 +26,11 @@ def test_delta_v_quadrature():
     by the same rule from |u|^2, agrees with the same dense integral to ~1e-8, which checks the
     reference and the time map; |u| is a norm, less smooth than |u|^2 where u is small, so its
     quadrature converges more slowly: 1e-4 relative. Cauchy-Schwarz: dv^2 <= 2 J T."""
-    plan = lpm.solve(mei2010.problem(), lpm.lgl(65), "kkt")
+    plan = lpm.solve(mei2010.problem(), lpm.lgl(65), method="kkt")
     T = float(plan.problem.duration)
     t = np.linspace(0.0, T, 200_001)
     u = np.asarray(jax.jit(jax.vmap(plan.controls))(jnp.asarray(t)))
-    dv = float(delta_v(plan))
+    dv = float(plan.delta_v)
     assert dv == pytest.approx(np.trapezoid(np.linalg.norm(u, axis=1), t), rel=1e-4)
     assert float(plan.cost) == pytest.approx(0.5 * np.trapezoid(np.sum(u**2, axis=1), t),
                                              rel=1e-6)
@@ -109,7 +109,7 @@ def test_execution_draws():
 def linear_flights():
     """mei2010's KKT plan (N = 32) flown 16 times through the linear model with thrust
     magnitude and navigation errors (no direction error: the flight is then affine in them)."""
-    plan = lpm.solve(mei2010.problem(), lpm.lgl(33), "kkt")
+    plan = lpm.solve(mei2010.problem(), lpm.lgl(33), method="kkt")
     errors = ExecutionErrors(magnitude=0.02, position=10.0, velocity=0.01)
     return plan, errors, execution_monte_carlo(jax.random.key(11), plan, 16, errors,
                                                model="linear")

@@ -98,14 +98,15 @@ PROPAGATE_BASE = {"state": np.array([7000e3, 0.0, 0.0, 0.0, 7546.0, 100.0]),
 
 
 def _min_time(d):
-    return lpm.min_time_transfer(lpm.MinimumTimeTransfer(
-        _orbit(d), d["x0"], d["xf"], d["thrust"], d["mass"], d["duration_bounds"]), lpm.lg(8))
+    return lpm.solve(lpm.MinimumTimeTransfer(
+        _orbit(d), d["x0"], d["xf"], d["thrust"], d["mass"], d["duration_bounds"]), lpm.lg(8),
+        throw=False)
 
 
 def _fuel(d):
-    return lpm.fuel_optimal_transfer(lpm.FuelOptimalTransfer(
+    return lpm.solve(lpm.FuelOptimalTransfer(
         _orbit(d), d["x0"], d["xf"], d["duration"], d["thrust_max"], d["mass"], d["isp"]),
-        FUEL_MESH)
+        FUEL_MESH, throw=False)
 
 
 def _propagate(d):
@@ -120,10 +121,13 @@ def _float64(base):
 
 
 ENTRY_POINTS = {name: (_float64(base), call) for name, (base, call) in {
-    "stm": (TRANSFER_BASE, lambda d: lpm.solve(_transfer("linear")(d), lpm.lgl(9), "stm")),
-    "kkt": (TRANSFER_BASE, lambda d: lpm.solve(_transfer("linear")(d), lpm.lgl(9), "kkt")),
+    "stm": (TRANSFER_BASE, lambda d: lpm.solve(_transfer("linear")(d), lpm.lgl(9),
+                                               method="stm", throw=False)),
+    "kkt": (TRANSFER_BASE, lambda d: lpm.solve(_transfer("linear")(d), lpm.lgl(9),
+                                               method="kkt", throw=False)),
     "newton-two-body": (TRANSFER_BASE,
-                        lambda d: lpm.solve(_transfer("two-body")(d), lpm.lgl(9), "newton")),
+                        lambda d: lpm.solve(_transfer("two-body")(d), lpm.lgl(9),
+                                            method="newton", throw=False)),
     "min-time": (MIN_TIME_BASE, _min_time),
     "fuel-optimal": (FUEL_BASE, _fuel),
     "lambert": (LAMBERT_BASE, lambda d: lambert(d["r1"], d["r2"], d["tof"], mu=d["mu"])),

@@ -73,7 +73,7 @@ def test_one_trace_per_N_and_results(reference):
     # Held perigee radius: the member with e = 0.3, 3 revolutions is mei2010's own case. The
     # same law on the same grid outside the sweep: equal to round-off (1e-12 relative).
     k = int(np.flatnonzero((t["e"] == 0.3) & (t["revolutions"] == 3.0))[0])
-    assert t["cost"][k] == pytest.approx(float(solve(mei2010.problem(), lgl(33), "kkt").cost),
+    assert t["cost"][k] == pytest.approx(float(solve(mei2010.problem(), lgl(33), method="kkt").cost),
                                          rel=1e-12)
     # The target (origin, at rest) is an equilibrium, so a longer transfer of the same
     # rendezvous can arrive early and wait: the optimal cost cannot grow with the duration.

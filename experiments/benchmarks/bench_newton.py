@@ -1,7 +1,7 @@
 """Benchmark of the nonlinear Newton-KKT transfer solver against CasADi + IPOPT (issue 3).
 
 The NLP: `newton_transfer(problem, lgl(65))` on `EnergyOptimalTransfer(..., model="two-body")`,
-i.e. the LGL N = 64 transcription of jaxlpm.problems.relative / transcription: scaled LVLH
+i.e. the LGL N = 64 transcription of jaxlpm.problems.energy_optimal / transcription: scaled LVLH
 state X (65 x 6), scaled control U (65 x 3), true anomaly as the independent variable, exact
 nonlinear relative dynamics with the chief's frame motion sampled once per node,
   defects   D X - h F(X_i, U_i)  (65 x 6, row-major),  boundary  [X_0 - x0, X_64 - xf],
@@ -79,7 +79,7 @@ from jaxlpm.collocation import lgl  # noqa: E402
 from jaxlpm.constants import R_EARTH  # noqa: E402
 from jaxlpm.orbits import KeplerOrbit  # noqa: E402
 from jaxlpm.problems import EnergyOptimalTransfer  # noqa: E402
-from jaxlpm.problems.relative import control_scale, cost_scale, transfer_ocp  # noqa: E402
+from jaxlpm.problems.energy_optimal import control_scale, cost_scale, transfer_ocp  # noqa: E402
 from jaxlpm.nlp.transcription import (equality, equality_jacobian,  # noqa: E402
                                            lagrangian_hessian, objective)
 from jaxlpm.batch.sweep import map_in_groups  # noqa: E402
@@ -184,7 +184,7 @@ def build_ipopt(D, weights, options=IPOPT_OPTIONS):
     row-major (n x 6), X_0 - x0, X_N - xf]: the same order as jaxlpm's `pack`/`equality`, so
     z0 and the multipliers carry over unchanged.
 
-    Dynamics (jaxlpm.problems.relative, model "two-body"): x_si = [L rho~, L n rho_dot~],
+    Dynamics (jaxlpm.problems.energy_optimal, model "two-body"): x_si = [L rho~, L n rho_dot~],
     u_si = L n^2 u~, rho_ddot = C (a(r_c + C^T rho) - a(r_c)) + u_si - 2 w x rho_dot
     - w_dot x rho - w x (w x rho) with the two-body gravity difference in Encke form, and
     F = q [rho_dot~, rho_ddot / (L n^2)]. (jaxlpm's function also has J2 terms, multiplied by

@@ -28,7 +28,7 @@ import numpy as np
 
 from .._validation import require_x64
 from ..status import Status
-from ..verify import control_interpolant, propagate_linear, propagate_nonlinear
+from ..verify import propagate_linear, propagate_nonlinear
 from .dispersion import dispersion_parameters, mei2010_dispersion
 from .sweep import (PERCENTILES, converged_statistics, map_in_groups, sweep,
                     transfer_family)
@@ -77,14 +77,18 @@ class ExecutionErrors:
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class _ErroneousControl:
-    """u(f) = gain * rotation @ planned u(f)."""
+    """u(x) = gain * rotation @ planned u(x) (x: the planned control's variable)."""
 
     planned: object
     gain: jax.Array
     rotation: jax.Array
 
-    def __call__(self, f):
-        return self.gain * (self.rotation @ self.planned(f))
+    @property
+    def variable(self):
+        return self.planned.variable
+
+    def __call__(self, x):
+        return self.gain * (self.rotation @ self.planned(x))
 
 
 def _rotation(axis, angle):
@@ -116,11 +120,12 @@ def _fly(d, control, problem, model):
     u = _ErroneousControl(control, d["gain"], _rotation(d["axis"], d["angle"]))
     x0 = problem.x0 + d["dx0"]
     if model == "linear":
-        _, xs, ok = propagate_linear(problem.orbit, x0, problem.duration, u, n_save=2)
+        _, xs, status = propagate_linear(problem.orbit, x0, problem.duration, u, n_save=2)
     else:
         j2 = problem.j2 if model == "j2" else 0.0
-        _, xs, ok = propagate_nonlinear(problem.orbit, x0, problem.duration, u, n_save=2,
-                                        j2=j2, r_eq=problem.r_eq)
+        _, xs, status = propagate_nonlinear(problem.orbit, x0, problem.duration, u, n_save=2,
+                                            j2=j2, r_eq=problem.r_eq)
+    ok = status == Status.SUCCESS
     miss = xs[-1] - problem.xf
     return dict(final_state=xs[-1], position_miss=jnp.linalg.norm(miss[:3]),
                 velocity_miss=jnp.linalg.norm(miss[3:]),
@@ -159,7 +164,7 @@ def execution_monte_carlo(key, plan, n: int, errors: ExecutionErrors, model: str
     if int(n) < 1:
         raise ValueError(f"n must be a positive number of samples, got {n}")
     draws = execution_draws(key, int(n), errors)
-    rows = _fly_all(draws, control_interpolant(plan), plan.problem, model,
+    rows = _fly_all(draws, plan.trajectory.flight_control(), plan.problem, model,
                     min(int(batch_size), int(n) + 1))
     rows = {k: np.asarray(v) for k, v in rows.items()}
     out = {**{k: np.asarray(v) for k, v in draws.items()}, **{k: v[1:] for k, v in rows.items()}}

@@ -58,7 +58,7 @@ from tqdm import tqdm
 from .._validation import require_x64
 from ..collocation import lgl
 from ..problems import EnergyOptimalTransfer
-from ..problems.transfer import perigee_above_surface
+from ..problems.energy_optimal import perigee_above_surface
 from ..solvers import solve
 from ..status import Status
 
@@ -177,19 +177,6 @@ def _check_transfer_parameters(base, hold, model):
     return validate
 
 
-def delta_v(solution):
-    """Delta-v = int |u| dt (m/s) of a transfer solved in the chief's true anomaly f (the LQ
-    laws; Newton-KKT on the "linear" and "two-body" models), by the grid's quadrature in f
-    with dt/df = 1 / (k^2 (1 + e cos f)^2), k^2 = sqrt(mu / p^3) (Keplerian chief): the rule
-    that gives `solution.cost` from |u|^2. Not for the "j2" model (regularised anomaly)."""
-    o = solution.problem.orbit
-    f = solution.node_f if hasattr(solution, "node_f") else solution.node_s
-    f0, fT = solution.anomaly_interval()
-    speed = jnp.linalg.norm(solution.node_controls, axis=-1)
-    return 0.5 * (fT - f0) * jnp.sum(solution.grid.weights * speed
-                                     / (o.k2 * (1.0 + o.e * jnp.cos(f)) ** 2))
-
-
 def transfer_record(method: str) -> Callable:
     """(problem, grid) -> the record a sweep stores per member: status, cost (1/2 int |u|^2 dt,
     m^2/s^3), cost_true_anomaly (k^2 * cost, m^2/s^4), delta_v (int |u| dt, m/s), constraint
@@ -199,14 +186,16 @@ def transfer_record(method: str) -> Callable:
         raise ValueError(f"method must be one of {sorted(TRANSFER_METHODS)}, got {method!r}")
 
     def record(problem, grid):
-        sol = solve(problem.replace(model=TRANSFER_METHODS[method]), grid, method)
-        out = dict(status=sol.status, cost=sol.cost, cost_true_anomaly=sol.cost_true_anomaly,
-                   delta_v=delta_v(sol), constraint_residual=sol.constraint_residual,
-                   stationarity_residual=sol.stationarity_residual,
+        sol = solve(problem.replace(model=TRANSFER_METHODS[method]), grid, method=method,
+                    throw=False)
+        out = dict(status=sol.status, cost=sol.cost,
+                   cost_true_anomaly=sol.stats["cost_true_anomaly"], delta_v=sol.delta_v,
+                   constraint_residual=sol.stats["constraint_residual"],
+                   stationarity_residual=sol.stats["stationarity_residual"],
                    max_control=jnp.max(jnp.linalg.norm(sol.node_controls, axis=1)),
                    initial_control=sol.node_controls[0])
         if method == "newton":
-            out["iterations"] = sol.iterations.astype(jnp.int32)
+            out["iterations"] = sol.stats["iterations"].astype(jnp.int32)
         return out
 
     return record

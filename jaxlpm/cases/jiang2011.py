@@ -19,6 +19,7 @@ the hard terminal constraint is Mei's energy-optimal transfer (the KKT law, `met
 e = 0); the same chief and initial state, to the origin in one period, N = 32.
 """
 
+import functools
 import time
 
 import jax
@@ -30,7 +31,7 @@ from ..constants import MU_EARTH, R_EARTH
 from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
 from ..problems import EnergyOptimalTransfer
-from ..solvers import LAWS
+from ..solvers import solve
 from ..solvers.lqr import finite_horizon_lqr, infinite_horizon_flight
 
 NAME = "jiang2011"
@@ -86,8 +87,9 @@ def kkt_link(log=print):
     t = time.perf_counter()
     grid = lgl(N_KKT + 1)
     # one KKT solve: LLVM's backend optimisation (most of its compile time) is skipped
-    kkt = jax.jit(LAWS["kkt"]).lower(prob, grid).compile(compiler_options=_QUICK)(prob, grid)
-    nodes = np.asarray(kkt.node_times)
+    kkt = jax.jit(functools.partial(solve, method="kkt", throw=False)).lower(
+        prob, grid).compile(compiler_options=_QUICK)(prob, grid)
+    nodes = np.asarray(kkt.times)
     # output at the nodes, then a uniform sampling for the figure: N_OUT times in all, so the
     # compiled sweep of the 6-period flight serves these too
     ts = np.concatenate([nodes, np.linspace(0.0, T, N_OUT - nodes.size)])

@@ -8,6 +8,7 @@ Its quirks live here: its "N" is the polynomial degree (lgl(N + 1)); its cost is
 k^2 * 1/2 int |u|^2 dt in m^2/s^4 (printed as m^2/s); its published numbers below.
 """
 
+import functools
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -18,9 +19,9 @@ import numpy as np
 from ..collocation import lgl
 from ..orbits import KeplerOrbit
 from ..problems import EnergyOptimalTransfer
-from ..solvers import LAWS, newton_transfer
+from ..solvers import solve
 from ..status import Status
-from ..verify import control_interpolant, propagate_linear, propagate_nonlinear, terminal_error
+from ..verify import fly
 
 NAME = "mei2010"
 TITLE = "Mei, Ma & Yang 2010: LGL energy-optimal relative transfer on an elliptic orbit"
@@ -57,34 +58,24 @@ def problem() -> EnergyOptimalTransfer:
 _QUICK = {"xla_backend_optimization_level": 0}
 
 
-def _compile(fn, args, options):
-    return fn.lower(*args).compile(compiler_options=options)
-
-
-def _fly_nonlinear(orbit, x0, duration, control, j2, r_eq):
-    return propagate_nonlinear(orbit, x0, duration, control, 401, j2, r_eq)
+def _solver(points, method):
+    return jax.jit(functools.partial(solve, grid=lgl(points), method=method, throw=False))
 
 
 def _compile_all(prob, log):
-    """AOT-compile every (law, N), the Newton-KKT transfers and both propagators, two at a
-    time (one per core)."""
-    probe = jax.eval_shape(LAWS["kkt"], prob, lgl(N_HEADLINE + 1))
-    ci = jax.eval_shape(control_interpolant, probe)
-    jobs = {"nonlinear": (jax.jit(_fly_nonlinear),                          # longest first
-                          (prob.orbit, prob.x0, prob.duration, ci, prob.j2, prob.r_eq), None)}
-    jobs.update({("newton", model): (jax.jit(newton_transfer),
-                                     (prob.replace(model=model), lgl(N_HEADLINE + 1)), _QUICK)
-                 for model in NONLINEAR_MODELS})
-    jobs["linear"] = (jax.jit(propagate_linear), (prob.orbit, prob.x0, prob.duration, ci), None)
-    jobs.update({(law, N): (jax.jit(LAWS[law]), (prob, lgl(N + 1)), _QUICK)
-                 for law in LQ_LAWS for N in N_CONVERGENCE})
+    """AOT-compile every (law, N) and the Newton-KKT transfers, two at a time (one per
+    core)."""
+    jobs = {("newton", model): (_solver(N_HEADLINE + 1, "newton"), prob.replace(model=model))
+            for model in NONLINEAR_MODELS}
+    jobs.update({(law, N): (_solver(N + 1, law), prob) for law in LQ_LAWS
+                 for N in N_CONVERGENCE})
     t = time.perf_counter()
     with ThreadPoolExecutor(max_workers=2) as pool:
-        futures = {k: pool.submit(_compile, *job) for k, job in jobs.items()}
+        futures = {k: pool.submit(lambda f, p: f.lower(p).compile(compiler_options=_QUICK),
+                                  *job) for k, job in jobs.items()}
         compiled = {k: fut.result() for k, fut in futures.items()}
-    log(f"compiled {len(compiled)} functions (2 laws x {len(N_CONVERGENCE)} grids, "
-        f"{len(NONLINEAR_MODELS)} Newton-KKT transfers, 2 propagators) in "
-        f"{time.perf_counter() - t:.1f} s")
+    log(f"compiled {len(compiled)} solvers (2 laws x {len(N_CONVERGENCE)} grids, "
+        f"{len(NONLINEAR_MODELS)} Newton-KKT transfers) in {time.perf_counter() - t:.1f} s")
     return compiled
 
 
@@ -92,81 +83,73 @@ def _pair(x):
     return [float(v) for v in np.asarray(x)]
 
 
+def _flown(solution, model):
+    flight = fly(solution, model=model)
+    if not bool(flight.success):
+        raise RuntimeError(f"the {model} flight failed: {Status(int(flight.status)).name}")
+    return flight
+
+
 def compute(log=print):
     """Solve, verify and collect everything the reproduction reports."""
     prob = problem()
     compiled = _compile_all(prob, log)
     t = time.perf_counter()
-    sols = {(law, N): compiled[(law, N)](prob, lgl(N + 1))
-            for law in LQ_LAWS for N in N_CONVERGENCE}
+    sols = {(law, N): compiled[(law, N)](prob) for law in LQ_LAWS for N in N_CONVERGENCE}
     bad = [k for k, s in sols.items() if int(s.status) != 0]
     if bad:
         raise RuntimeError(f"solves did not succeed: {[(k, sols[k].message) for k in bad]}")
     log(f"solved both laws at N = {list(N_CONVERGENCE)} in {time.perf_counter() - t:.2f} s")
 
     t = time.perf_counter()
-    lin = {}
-    for key, s in sols.items():
-        ts, xs, ok = compiled["linear"](prob.orbit, prob.x0, prob.duration, control_interpolant(s))
-        if not bool(ok):
-            raise RuntimeError(f"linear propagation failed for {key}")
-        lin[key] = (np.asarray(ts), np.asarray(xs))
-    nonlin = {}
-    for law in LQ_LAWS:
-        s = sols[(law, N_HEADLINE)]
-        ts, xs, ok = compiled["nonlinear"](prob.orbit, prob.x0, prob.duration,
-                                           control_interpolant(s), 0.0, prob.r_eq)
-        if not bool(ok):
-            raise RuntimeError(f"nonlinear propagation failed for {law}")
-        nonlin[law] = (np.asarray(ts), np.asarray(xs))
-    log(f"propagated {len(lin)} linear and {len(nonlin)} nonlinear flights (Dopri8, "
-        f"rtol 1e-12) in {time.perf_counter() - t:.1f} s")
+    lin = {key: _flown(s, "linear") for key, s in sols.items()}
+    nonlin = {law: _flown(sols[(law, N_HEADLINE)], "two-body") for law in LQ_LAWS}
+    log(f"flew {len(lin)} linear and {len(nonlin)} nonlinear flights (Dopri8, rtol 1e-12) "
+        f"in {time.perf_counter() - t:.1f} s")
 
     t = time.perf_counter()
     transfers = {}
     for model in NONLINEAR_MODELS:
-        p = prob.replace(model=model)
-        s = compiled[("newton", model)](p, lgl(N_HEADLINE + 1))
-        j2 = p.j2 if model == "j2" else 0.0
-        ts, xs, ok = compiled["nonlinear"](p.orbit, p.x0, p.duration, control_interpolant(s),
-                                           j2, p.r_eq)
-        if not bool(ok):
-            raise RuntimeError(f"nonlinear propagation failed for the {model} transfer")
-        transfers[model] = (s, np.asarray(ts), np.asarray(xs))
+        s = compiled[("newton", model)](prob.replace(model=model))
+        transfers[model] = (s, _flown(s, model))
     log(f"solved and flew the Newton-KKT transfers ({', '.join(NONLINEAR_MODELS)}) in "
         f"{time.perf_counter() - t:.2f} s")
 
-    err = lambda xs: _pair(terminal_error(xs, prob.xf))
+    err = lambda flight: _pair(flight.terminal_error)
     head = {law: sols[(law, N_HEADLINE)] for law in LQ_LAWS}
     computed = {
         "N": N_HEADLINE,
-        "J_stm": float(head["stm"].cost_true_anomaly),
-        "J_kkt": float(head["kkt"].cost_true_anomaly),
+        "points": N_HEADLINE + 1,
+        "node_count_convention": "N is the paper's polynomial degree; the grid is lgl(N + 1) "
+                                 "(the library counts points)",
+        "J_stm": float(head["stm"].stats["cost_true_anomaly"]),
+        "J_kkt": float(head["kkt"].stats["cost_true_anomaly"]),
         "J_units": "m^2/s^4 (Mei 2010 eq. 8: k^2 * 1/2 int |u|^2 dt; the paper prints m^2/s)",
         "J_time_kkt": float(head["kkt"].cost),
         "J_time_stm": float(head["stm"].cost),
         "J_time_units": "m^2/s^3 (1/2 int |u|^2 dt)",
-        "terminal_error_linear": {law: err(lin[(law, N_HEADLINE)][1]) for law in LQ_LAWS},
-        "terminal_error_nonlinear": {law: err(nonlin[law][1]) for law in LQ_LAWS},
+        "terminal_error_linear": {law: err(lin[(law, N_HEADLINE)]) for law in LQ_LAWS},
+        "terminal_error_nonlinear": {law: err(nonlin[law]) for law in LQ_LAWS},
         "terminal_error_units": ["m", "m/s"],
         "convergence": [
-            {"N": N,
-             "J_stm": float(sols[("stm", N)].cost_true_anomaly),
-             "J_kkt": float(sols[("kkt", N)].cost_true_anomaly),
-             "terminal_error_linear_stm": err(lin[("stm", N)][1]),
-             "terminal_error_linear_kkt": err(lin[("kkt", N)][1])}
+            {"N": N, "points": N + 1,
+             "J_stm": float(sols[("stm", N)].stats["cost_true_anomaly"]),
+             "J_kkt": float(sols[("kkt", N)].stats["cost_true_anomaly"]),
+             "terminal_error_linear_stm": err(lin[("stm", N)]),
+             "terminal_error_linear_kkt": err(lin[("kkt", N)])}
             for N in N_CONVERGENCE],
     }
     for model, key in NONLINEAR_MODELS.items():
-        s, _, xs = transfers[model]
+        s, flight = transfers[model]
+        st = s.stats
         computed[key] = {
-            "J": float(s.cost_true_anomaly),
+            "J": float(st["cost_true_anomaly"]),
             "J_time": float(s.cost),
-            "terminal_error_nonlinear": err(xs),
-            "iterations": int(s.iterations),
+            "terminal_error_nonlinear": err(flight),
+            "iterations": int(st["iterations"]),
             "status": Status(int(s.status)).name,
-            "constraint_residual": float(s.constraint_residual),
-            "stationarity_residual": float(s.stationarity_residual),
+            "constraint_residual": float(st["constraint_residual"]),
+            "stationarity_residual": float(st["stationarity_residual"]),
             "model": "two-body + J2 on both spacecraft" if model == "j2" else "two-body",
         }
     return prob, head, lin, nonlin, transfers, computed
@@ -243,22 +226,22 @@ def figures(head, lin, nonlin, transfers, computed, out_dir):
         s = head[law]
         paths.append(plot_control(s, out_dir / f"fig{fc}_control_{law}.png",
                                   f"Fig. {fc}: control acceleration ({law.upper()} law, N = 64)"))
+        flight = lin[(law, N_HEADLINE)]
         paths.append(plot_relative_motion(
-            *lin[(law, N_HEADLINE)], out_dir / f"fig{fl}_linear_{law}.png",
+            flight.times, flight.states, out_dir / f"fig{fl}_linear_{law}.png",
             f"Fig. {fl}: relative motion, linear model ({law.upper()} law)"))
         paths.append(plot_relative_motion(
-            *nonlin[law], out_dir / f"fig{fn}_nonlinear_{law}.png",
+            nonlin[law].times, nonlin[law].states, out_dir / f"fig{fn}_nonlinear_{law}.png",
             f"Fig. {fn}: relative motion, nonlinear two-body model ({law.upper()} law)"))
     paths.append(plot_convergence(computed["convergence"], out_dir / "convergence.png"))
-    for model, (s, ts, xs) in transfers.items():
-        anomaly = jnp.linspace(s.s0, s.sf, 1500)
-        u = np.asarray(jax.vmap(s.controls_at_anomaly)(anomaly))
-        t = np.asarray(jax.vmap(s.time_at_anomaly)(anomaly))
+    for model, (s, flight) in transfers.items():
+        t = np.linspace(0.0, float(s.duration), 1500)
+        u = np.asarray(s.controls(t))
         paths.append(plot_control_history(
             t, u, out_dir / f"newton_{model}_control.png",
             f"Newton-KKT transfer, {model} model: control (N = 64)"))
         paths.append(plot_relative_motion(
-            ts, xs, out_dir / f"newton_{model}_flight.png",
+            flight.times, flight.states, out_dir / f"newton_{model}_flight.png",
             f"Newton-KKT transfer flown on the {model} model"))
     return paths
 

@@ -4,11 +4,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..orbits import time_from_true_anomaly  # noqa: E402
 
 
 def _save(fig, path):
@@ -20,14 +17,13 @@ def _save(fig, path):
 
 def plot_control(solution, path, title):
     """LVLH control acceleration components and magnitude vs time: interpolant and nodes."""
-    f = jnp.linspace(solution.node_f[0], solution.node_f[-1], 1500)
-    u = np.asarray(jax.vmap(solution.controls_at_true_anomaly)(f))
-    t = np.asarray(time_from_true_anomaly(solution.problem.orbit, f))
+    t = np.linspace(0.0, float(solution.duration), 1500)
+    u = np.asarray(solution.controls(t))
     fig, ax = plt.subplots(figsize=(7, 4))
     for k, name in enumerate("xyz"):
         ax.plot(t, u[:, k], label=f"u_{name}")
     ax.plot(t, np.linalg.norm(u, axis=1), "k", lw=1.5, label="|u|")
-    ax.plot(solution.node_times, np.linalg.norm(solution.node_controls, axis=1), "k.", ms=4,
+    ax.plot(solution.times, np.linalg.norm(solution.node_controls, axis=1), "k.", ms=4,
             label="|u| at LGL nodes")
     ax.set(xlabel="t (s)", ylabel="acceleration (m/s²)", title=title)
     ax.legend(fontsize=8)
@@ -87,7 +83,7 @@ def plot_terminal_weight_limit(link, ts, kkt, controls, path):
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
     for k, name in enumerate("xyz"):
         a1.plot(ts, controls[:, k], "-", lw=1, color=f"C{k}", label=f"LQ sweep u_{name}")
-        a1.plot(kkt.node_times, kkt.node_controls[:, k], "o", ms=3, color=f"C{k}",
+        a1.plot(kkt.times, kkt.node_controls[:, k], "o", ms=3, color=f"C{k}",
                 label=f"KKT law u_{name}")
     a1.set(xlabel="t (s)", ylabel="acceleration (m/s²)",
            title="hard terminal constraint: LQ sweep and KKT law")

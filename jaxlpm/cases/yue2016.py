@@ -29,12 +29,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..collocation import lgr
 from ..collocation.segments import aligned_breaks
 from ..constants import G0, MU_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
 from ..problems.fuel_optimal import FuelOptimalTransfer
-from ..solvers.fuel_optimal import burn_arcs, indirect_fuel_optimal, refine_fuel_optimal
+from ..solvers.fuel_optimal import burn_arcs, indirect_fuel_optimal, primer, refine_fuel_optimal
 from ..status import Status
 
 NAME = "yue2016"
@@ -96,13 +95,13 @@ def _member(tree, i):
 
 def node_weights(sol):
     """Quadrature weights (s) of the collocation points of one solution, (K, n)."""
-    h = 0.5 * np.diff(np.asarray(sol.breaks))
-    return h[:, None] * np.asarray(lgr(sol.node_times.shape[-1]).weights)[None]
+    h = 0.5 * np.diff(np.asarray(sol.grid.breaks)) * float(sol.duration)
+    return h[:, None] * np.asarray(sol.grid.grid.weights)[None]
 
 
 def burns(sol):
     """Burn arcs (|p| > 1) of one solution with their Delta-v from the collocated thrust."""
-    t = np.asarray(sol.node_times)
+    t = np.asarray(sol.times)
     dv_nodes = node_weights(sol) * np.linalg.norm(np.asarray(sol.node_controls), axis=-1)
     rows = []
     for a, b in burn_arcs(sol):
@@ -126,21 +125,21 @@ def sweep(log):
     grid = [(f, r) for f in SWEEP_THRUST for r in SWEEP_REVOLUTIONS]
     probs = problems(thrust=[f for f, _ in grid], revolutions=[r for _, r in grid],
                      targets_km=[(0, 8, 0)] * len(grid))
-    passes, dt = _timed(refine_fuel_optimal, probs, SEGMENTS, POINTS, fuel_tol=FUEL_TOL,
-                        max_passes=SWEEP_PASSES)
-    sol = passes[-1].solution
+    sol, dt = _timed(refine_fuel_optimal, probs, SEGMENTS, POINTS, fuel_tol=FUEL_TOL,
+                     max_passes=SWEEP_PASSES)
+    st = sol.stats
     status = np.asarray(sol.status)
     rows = [{"thrust_N": f, "revolutions": r, "duration_s": float(sol.problem.duration[i]),
-             "fuel_g": 1e3 * float(sol.fuel[i]), "dv_mps": float(sol.dv[i]),
-             "energy_optimal_fuel_g": 1e3 * float(sol.energy_fuel[i]),
-             "status": Status(int(status[i])).name, "eps": float(sol.eps[i]),
-             "fuel_change_last_pass": float(passes[-1].fuel_change[i])}
+             "fuel_g": 1e3 * float(st["fuel"][i]), "dv_mps": float(sol.delta_v[i]),
+             "energy_optimal_fuel_g": 1e3 * float(st["energy_fuel"][i]),
+             "status": Status(int(status[i])).name, "eps": float(st["eps"][i]),
+             "fuel_change_last_pass": float(st["fuel_change"][i])}
             for i, (f, r) in enumerate(grid)]
     ok = int(np.sum(status == Status.SUCCESS))
     log(f"sweep of (0,8,0) km over T_max {SWEEP_THRUST} N x {SWEEP_REVOLUTIONS} periods: "
-        f"{len(grid)} members, {len(passes)} passes of one vmapped call each, {ok} converged "
+        f"{len(grid)} members, {int(st['passes'][0])} passes of one vmapped call each, {ok} converged "
         f"({dt:.1f} s)")
-    return {"members": len(grid), "converged": ok, "passes": len(passes), "seconds": dt,
+    return {"members": len(grid), "converged": ok, "passes": int(st["passes"][0]), "seconds": dt,
             "rows": rows}
 
 
@@ -150,41 +149,42 @@ def compute(log=print):
     log(f"chief a = {A_CHIEF:.1f} m (R_E + 400 km), n = {n:.10e} rad/s, period {T:.6f} s; "
         f"{MASS} kg, Isp {ISP} s, T_max {THRUST_MAX} N (u_max = {THRUST_MAX / MASS} m/s^2)")
     probs = problems()
-    passes, dt = _timed(refine_fuel_optimal, probs, SEGMENTS, POINTS, fuel_tol=FUEL_TOL)
-    for k, p in enumerate(passes):
-        log(f"mesh pass {k + 1}: fuel (g) {np.round(1e3 * np.asarray(p.solution.fuel), 7)}, "
-            f"relative change {p.fuel_change}, eps {np.asarray(p.solution.eps)}, status "
-            f"{[Status(int(s)).name for s in np.asarray(p.solution.status)]}")
-    log(f"{len(passes)} passes, the three deputies batched ({dt:.1f} s incl. compile)")
-    sol = passes[-1].solution
+    sol, dt = _timed(refine_fuel_optimal, probs, SEGMENTS, POINTS, fuel_tol=FUEL_TOL)
+    st = sol.stats
+    for k, fuel in enumerate(st["fuel_by_pass"].T):
+        log(f"mesh pass {k + 1}: fuel (g) {np.round(1e3 * fuel, 7)}")
+    log(f"{int(st['passes'][0])} passes, the three deputies batched ({dt:.1f} s incl. compile); last "
+        f"relative change {st['fuel_change']}, eps {np.asarray(st['eps'])}, status "
+        f"{[Status(int(s)).name for s in np.asarray(sol.status)]}")
     if not np.all(np.asarray(sol.status) == Status.SUCCESS):
         raise RuntimeError(f"a deputy did not converge: {np.asarray(sol.status)}")
     keys = [key(t) for t in TARGETS_KM]
     members = [_member(sol, i) for i in range(len(keys))]
     indirect = {}
     for i, k in enumerate(keys):
-        b = aligned_breaks(0.0, 1.0, INDIRECT_PANELS, passes[-1].breaks[i][1:-1])
+        b = aligned_breaks(0.0, 1.0, INDIRECT_PANELS, np.asarray(sol.grid.breaks[i][1:-1]))
         ind, dti = _timed(indirect_fuel_optimal, _member(probs, i), b,
-                          members[i].energy_multipliers)
+                          members[i].stats["energy_multipliers"])
         indirect[k] = {"fuel_g": 1e3 * float(ind.fuel), "dv_mps": float(ind.dv),
                        "status": Status(int(ind.status)).name, "eps": float(ind.eps),
                        "terminal_error": [float(v) for v in ind.terminal_error],
                        "relative_difference_to_direct":
-                           float(ind.dv) / float(members[i].dv) - 1.0,
+                           float(ind.dv) / float(members[i].delta_v) - 1.0,
                        "newton_iterations": int(ind.newton_iterations)}
         log(f"indirect ({k}): fuel {indirect[k]['fuel_g']:.7f} g, "
             f"{indirect[k]['status']}, direct - indirect "
             f"{-indirect[k]['relative_difference_to_direct']:.1e} relative ({dti:.1f} s)")
-    fuel = {k: 1e3 * float(m.fuel) for k, m in zip(keys, members)}
-    energy = {k: 1e3 * float(m.energy_fuel) for k, m in zip(keys, members)}
+    fuel = {k: 1e3 * float(m.stats["fuel"]) for k, m in zip(keys, members)}
+    energy = {k: 1e3 * float(m.stats["energy_fuel"]) for k, m in zip(keys, members)}
     swept = sweep(log)
     by_time = [r for r in swept["rows"] if r["thrust_N"] == THRUST_MAX]
     computed = {
         "fuel_g": fuel,
-        "dv_mps": {k: float(m.dv) for k, m in zip(keys, members)},
+        "dv_mps": {k: float(m.delta_v) for k, m in zip(keys, members)},
         "energy_optimal_fuel_g": energy,
-        "energy_optimal_dv_mps": {k: float(m.energy_dv) for k, m in zip(keys, members)},
-        "energy_optimal_cost_m2ps3": {k: float(m.energy_cost) for k, m in zip(keys, members)},
+        "energy_optimal_dv_mps": {k: float(m.stats["energy_dv"]) for k, m in zip(keys, members)},
+        "energy_optimal_cost_m2ps3": {k: float(m.stats["energy_cost"])
+                                      for k, m in zip(keys, members)},
         "fuel_formula": "rocket equation m (1 - exp(-dv / (Isp g0))), g0 = "
                         f"{G0} m/s^2; the paper's eq. 2 (F dt / (Isp g0)) is larger by "
                         "dv / (2 Isp g0) ~ 5e-5 relative",
@@ -195,18 +195,19 @@ def compute(log=print):
         "symmetry_relative_difference": fuel["0,-4,0"] / fuel["0,4,0"] - 1.0,
         "largest_fuel_g": max(fuel.values()),
         "status": {k: Status(int(m.status)).name for k, m in zip(keys, members)},
-        "eps": {k: float(m.eps) for k, m in zip(keys, members)},
-        "terminal_error": {k: [float(v) for v in m.terminal_error]
+        "eps": {k: float(m.stats["eps"]) for k, m in zip(keys, members)},
+        "terminal_error": {k: [float(v) for v in m.stats["terminal_error"]]
                            for k, m in zip(keys, members)},
         "mesh": {
             "scheme": "segmented LGR (Radau), state continuous across segments",
             "segments": SEGMENTS, "points_per_segment": POINTS,
-            "passes": len(passes),
-            "fuel_g_by_pass": [{k: 1e3 * float(p.solution.fuel[i]) for i, k in enumerate(keys)}
-                               for p in passes],
-            "relative_change_last_pass": {k: float(passes[-1].fuel_change[i])
+            "passes": int(st["passes"][0]),
+            "fuel_g_by_pass": [{k: 1e3 * float(f[i]) for i, k in enumerate(keys)}
+                               for f in st["fuel_by_pass"].T],
+            "relative_change_last_pass": {k: float(st["fuel_change"][i])
                                           for i, k in enumerate(keys)},
-            "breaks_s": {k: (passes[-1].breaks[i] * T).tolist() for i, k in enumerate(keys)},
+            "breaks_s": {k: (np.asarray(sol.grid.breaks[i]) * T).tolist()
+                         for i, k in enumerate(keys)},
         },
         "indirect": indirect,
         "fuel_vs_transfer_time_8km": [{"revolutions": r["revolutions"], "fuel_g": r["fuel_g"],
@@ -220,7 +221,7 @@ def compute(log=print):
                  "frames": "the paper's HCW frame is our LVLH (x radial out, y along-track, "
                            "z orbit normal)"},
     }
-    return computed, (passes, members)
+    return computed, (sol, members)
 
 
 NOTES = [
@@ -278,14 +279,15 @@ def figures(computed, data, out_dir):
     function, and the T_max x transfer-time sweep."""
     from .plots import _save, plt
 
-    passes, members = data
+    _, members = data
     keys = list(computed["fuel_g"])
     paths = []
     fig, axes = plt.subplots(len(keys), 1, figsize=(8, 7), sharex=True)
     for ax, k, m in zip(axes, keys, members):
-        t = np.asarray(m.node_times).reshape(-1)
+        t = np.asarray(m.times).reshape(-1)
         F = MASS * np.linalg.norm(np.asarray(m.node_controls), axis=-1).reshape(-1)
-        Fe = MASS * np.linalg.norm(np.asarray(m.energy_node_controls), axis=-1).reshape(-1)
+        Fe = MASS * np.linalg.norm(np.asarray(m.stats["energy_node_controls"]),
+                                   axis=-1).reshape(-1)
         ax.plot(t, F, "k.-", lw=1, ms=3, label=f"fuel-optimal ({computed['fuel_g'][k]:.4f} g)")
         ax.plot(t, Fe, "b-", lw=1,
                 label=f"energy-optimal ({computed['energy_optimal_fuel_g'][k]:.4f} g)")
@@ -297,7 +299,7 @@ def figures(computed, data, out_dir):
 
     fig, ax = plt.subplots(figsize=(8, 4))
     for k, m in zip(keys, members):
-        X = np.asarray(m.states).reshape(-1, 6)
+        X = np.asarray(m.node_states).reshape(-1, 6)
         ax.plot(X[:, 1] / 1e3, X[:, 0] / 1e3, label=f"({k}) km")
     ax.plot([0], [0], "ko", label="chief")
     ax.set(xlabel="y along-track (km)", ylabel="x radial (km)",
@@ -311,7 +313,7 @@ def figures(computed, data, out_dir):
         T = float(m.problem.duration)
         for ax, (a, b) in zip(axes, [(0.0, 300.0), (T - 300.0, T)]):
             ts = jnp.linspace(a, b, 600)
-            S = np.asarray(jax.vmap(lambda t: jnp.linalg.norm(m.primer(t)))(ts))
+            S = np.asarray(jax.vmap(lambda t: jnp.linalg.norm(primer(m, t)))(ts))
             ax.plot(np.asarray(ts), S - 1.0, label=f"({k}) km")
     for ax, side in zip(axes, ("first", "last")):
         ax.axhline(0.0, color="k", lw=0.8)

@@ -4,7 +4,8 @@ For a Keplerian chief s is the true anomaly f (f_dot = |h| / r^2) and the sample
 analytic. For a J2-perturbed chief s = f0 + int_0^t |h| / r^2 dt is the regularised variable the
 eccentric-orbit problems are collocated in (it advances like an argument of latitude: one orbit
 per 2 pi, fast at perigee, so orbital harmonics stay low-degree polynomials in s). Its samples
-come from two integrations (diffrax Dopri8, rtol = atol = 1e-13 in scaled variables), each over a
+come from two integrations (`jaxlpm.dynamics.propagation.EPHEMERIS`: Dopri8, rtol = atol = 1e-13 in scaled
+variables), each over a
 normalised interval [0, 1] so that the duration and the final anomaly enter as parameters and
 everything is differentiable (also with respect to J2):
 
@@ -26,9 +27,7 @@ from ..orbits import (KeplerOrbit, elements_to_state, time_from_true_anomaly,
                       true_anomaly_from_time)
 from ..status import Status
 from .gravity import gravity_acceleration
-from .propagation import solve_ode
-
-RTOL = ATOL = 1e-13
+from .propagation import EPHEMERIS, solve_ode
 
 
 @jax.tree_util.register_dataclass
@@ -65,7 +64,7 @@ def kepler_chief(orbit: KeplerOrbit, s):
 def _integrate(rhs, y0, scale, saveat):
     """(ys, ok) over sigma in [0, 1]; ok False when `solve_ode` failed (never raises)."""
     ys, status = solve_ode(lambda x, y: rhs(y * scale) / scale, y0 / scale, 0.0, 1.0, saveat,
-                           RTOL, ATOL, 100_000)
+                           EPHEMERIS)
     return ys * scale, status == Status.SUCCESS
 
 

@@ -1,14 +1,26 @@
-"""Coast propagation of one inertial state under two-body + J2 gravity
-(`gravity.inertial_rhs`), and `solve_ode`, the non-raising diffrax call every jaxlpm
-integrator goes through.
+"""The one place jaxlpm integrates ODEs: `solve_ode` (the non-raising diffrax call every
+integrator goes through), the integrator settings each use is given (`Integrator`, defined
+once here), and the coast propagation of one inertial state under two-body + J2 gravity
+(`propagate`, `gravity.inertial_rhs`).
 
-Integrator: diffrax Dopri8 (8th-order Dormand-Prince, adaptive, PID step control) at
-rtol = atol = 1e-12 on the state scaled by |r0| and |r0| sqrt(mu / |r0|^3), so positions are
-held to ~1e-12 |r0| per unit step error: millimetres at 4e7 m, over the days of coast of a
-long-range intercept (tests/test_propagation.py measures it against scipy's DOP853).
-Differentiable in reverse mode (diffrax's recursive checkpointing adjoint); `j2 = 0` gives
-exactly two-body. SI units: m, m/s, s.
+Every integration runs on states scaled to O(1) by its caller, with diffrax's PID step
+control:
+  COAST         Dopri8, rtol = atol = 1e-12: `propagate` on the state scaled by |r0| and
+                |r0| sqrt(mu / |r0|^3), so positions are held to ~1e-12 |r0| per unit step
+                error: millimetres at 4e7 m, over the days of coast of a long-range intercept
+                (tests/test_propagation.py measures it against scipy's DOP853); also the
+                relative flights of `jaxlpm.verify` (200 000 steps for long transfers).
+  EPHEMERIS     Dopri8, 1e-13: the J2 chief sampled for the transcription, and the indirect
+                (shooting) references, one decade tighter than the solutions they check.
+  INDEPENDENT   Tsit5, 1e-13: the inertial truth flight of `jaxlpm.verify`, which shares no
+                integration choice with the solvers' Dopri8.
+  VARIATIONAL   Dopri8, 1e-9: second-order variational equations that only shape a
+                boundary model's curvature (they set a convergence rate, not a result).
+Differentiable in reverse mode (diffrax's recursive checkpointing adjoint) unless an
+`Integrator` says otherwise; `j2 = 0` gives exactly two-body. SI units: m, m/s, s.
 """
+
+from dataclasses import dataclass
 
 import diffrax
 import jax
@@ -20,8 +32,25 @@ from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..status import Status
 from .gravity import inertial_rhs
 
-RTOL = ATOL = 1e-12
-MAX_STEPS = 100_000
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """Settings of one use of `solve_ode` (hashable: a static argument)."""
+
+    rtol: float
+    atol: float
+    max_steps: int = 100_000
+    solver: str = "Dopri8"          # a diffrax solver class name
+    adjoint: str = "RecursiveCheckpointAdjoint"
+
+
+COAST = Integrator(1e-12, 1e-12)
+FLIGHT = Integrator(1e-12, 1e-12, max_steps=200_000)
+EPHEMERIS = Integrator(1e-13, 1e-13)
+SHOOTING = Integrator(1e-13, 1e-13, adjoint="ForwardMode")
+INDEPENDENT = Integrator(1e-13, 1e-13, max_steps=1_000_000, solver="Tsit5")
+VARIATIONAL = Integrator(1e-9, 1e-9)
 
 
 def _all_finite(tree):
@@ -29,10 +58,10 @@ def _all_finite(tree):
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
 
 
-def solve_ode(rhs, y0, t0, t1, saveat, rtol, atol, max_steps, solver=diffrax.Dopri8(),
-              adjoint=diffrax.RecursiveCheckpointAdjoint()):
+def solve_ode(rhs, y0, t0, t1, saveat, integrator: Integrator):
     """Integrate dy/dt = rhs(t, y) (y any pytree) from t0 to t1 with PID-controlled adaptive
-    steps (dt0 chosen by diffrax); never raises (diffrax throw=False), also under jit/vmap.
+    steps (dt0 chosen by diffrax) and the `integrator`'s settings; never raises (diffrax
+    throw=False), also under jit/vmap.
 
     Returns (ys at `saveat`, status int32): SUCCESS; MAX_ITERATIONS when max_steps ran out
     (ys: the last accepted state at t1, inf at save times not reached); NONFINITE for any
@@ -44,10 +73,11 @@ def solve_ode(rhs, y0, t0, t1, saveat, rtol, atol, max_steps, solver=diffrax.Dop
     bad = ~(jnp.isfinite(t1 - t0) & _all_finite(y0) & _all_finite(rhs(t0, y0)))
     blank = lambda tree: jax.tree_util.tree_map(lambda x: jnp.where(bad, 0.0, x), tree)
     sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(lambda t, y, args: blank(rhs(t, y))), solver, t0, t1, dt0=None,
-        y0=blank(y0), saveat=saveat,
-        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol), max_steps=max_steps,
-        adjoint=adjoint, throw=False)
+        diffrax.ODETerm(lambda t, y, args: blank(rhs(t, y))),
+        getattr(diffrax, integrator.solver)(), t0, t1, dt0=None, y0=blank(y0), saveat=saveat,
+        stepsize_controller=diffrax.PIDController(rtol=integrator.rtol, atol=integrator.atol),
+        max_steps=integrator.max_steps, adjoint=getattr(diffrax, integrator.adjoint)(),
+        throw=False)
     success = (sol.result == diffrax.RESULTS.successful) & _all_finite(sol.ys)
     out_of_steps = sol.result == diffrax.RESULTS.max_steps_reached
     status = jnp.select([bad, success, out_of_steps],
@@ -92,7 +122,7 @@ def propagate(state, duration, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None):
     saveat = diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts)
     ys, status = solve_ode(
         lambda t, y: inertial_rhs(y * scale, jnp.zeros(3), mu, j2, r_eq) / scale,
-        state / scale, 0.0, duration, saveat, RTOL, ATOL, MAX_STEPS)
+        state / scale, 0.0, duration, saveat, COAST)
     ys = ys * scale
     valid = (jnp.isfinite(mu) & (mu > 0.0) & jnp.isfinite(r_eq) & (r_eq > 0.0)
              & jnp.isfinite(j2))            # the checks of `_check_propagation`, traced

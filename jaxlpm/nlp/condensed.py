@@ -4,7 +4,7 @@ For problems whose state is x = [r, v] (3 + 3) with dynamics
 
     dr/ds = q(s) v,      dv/ds = d(s, x) + b(s) u        (q, b scalars per point)
 
-and fixed boundary states (the LVLH transfers of `jaxlpm.problems.relative` with every thrust
+and fixed boundary states (the LVLH transfers of `jaxlpm.problems.energy_optimal` with every thrust
 axis, the minimum-time HCW transfer of `jaxlpm.problems.min_time`), the linearised collocation
 defects of every scheme
 

@@ -6,7 +6,7 @@
                 sf_min <= sf <= sf_max              (free final s only)
 
 The problem is written in the solver's own (nondimensional) units: the builders of physical
-problems (`jaxlpm.problems.relative`) scale SI inputs before they get here. s may be time,
+problems (`jaxlpm.problems.energy_optimal`) scale SI inputs before they get here. s may be time,
 true anomaly or a regularised variable; with `free_final` the final value sf is a decision
 variable (time scaling s = s0 + (sf - s0)(tau + 1)/2 on the grid's tau in [-1, 1]).
 

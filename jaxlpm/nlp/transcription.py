@@ -296,12 +296,27 @@ def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
     return H
 
 
-def costates(multipliers, ocp: OptimalControlProblem, grid):
+def costates(z, multipliers, ocp: OptimalControlProblem, grid):
     """Costate estimates lambda(s_i) (n, n_x) at the collocation points from the equality
-    multipliers (see the module docstring); in the problem's units, per unit s."""
+    multipliers (see the module docstring); in the problem's units, per unit s. On LGL the
+    end points take the transversality conditions instead, lambda(s0) = -(db/dx0)^T nu and
+    lambda(sf) = dphi/dxf + (db/dxf)^T nu (nu: the boundary multipliers), the closure that
+    Fahroo & Ross's (2001) covector mapping needs there: the quadrature estimate is not
+    consistent at the ends."""
     n_def = grid.n * ocp.n_x
     Lam = multipliers[:n_def].reshape(grid.n, ocp.n_x)
     lam = -Lam / grid.weights[:, None]
     if grid.scheme == "LG":
         lam = lam - multipliers[n_def:n_def + ocp.n_x][None]
+    if grid.scheme == "LGL":
+        X, _, sf = unpack(z, ocp, grid)
+        nu = multipliers[n_def:]
+
+        def ends(x0, xf):
+            phi = 0.0 if ocp.terminal_cost is None else ocp.terminal_cost(x0, xf, sf,
+                                                                          ocp.params)
+            return phi + nu @ jnp.atleast_1d(ocp.boundary(x0, xf, sf, ocp.params))
+
+        d0, df = jax.grad(ends, argnums=(0, 1))(X[0], X[-1])
+        lam = lam.at[0].set(-d0).at[-1].set(df)
     return lam

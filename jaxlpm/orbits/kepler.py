@@ -5,13 +5,12 @@ in which the elements are defined. True anomaly and time are continuous: a true 
 6*pi is three revolutions after f = 0, never wrapped.
 """
 
-import functools
 from dataclasses import dataclass, field, replace
 
 import jax
 import jax.numpy as jnp
 
-from .._validation import check_shape
+from .._validation import Checked, Rule, check_scalars
 from ..constants import MU_EARTH
 from ..implicit import root
 
@@ -20,7 +19,7 @@ ANGLES = ("i", "raan", "argp", "f0")
 
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
-class KeplerOrbit:
+class KeplerOrbit(Checked):
     """A Keplerian orbit: a (m), e, i, raan, argp (rad) and the true anomaly f0 (rad) at t = 0.
 
     Every field is an array leaf, so sweeps over e or a reuse one compiled function.
@@ -37,44 +36,26 @@ class KeplerOrbit:
     def replace(self, **kwargs) -> "KeplerOrbit":
         return replace(self, **kwargs)
 
-    def checks(self):
-        """The orbit's validity rules, written once: (field, in-graph flag, what is allowed).
-
-        `validate` raises on the first that fails (concrete input); `validity` is their
-        conjunction (traced input: status INVALID_INPUT).
-        """
+    def rules(self):
+        """The orbit's validity rules, written once (`jaxlpm._validation.Checked`): `validate`
+        raises on the first that fails (concrete input), `validity` is their conjunction
+        (traced input: status INVALID_INPUT)."""
         finite = {n: jnp.isfinite(getattr(self, n)) for n in ANGLES}
-        return [("orbit.a", jnp.isfinite(self.a) & (self.a > 0.0),
-                 "a positive, finite semi-major axis in m"),
-                ("orbit.e", jnp.isfinite(self.e) & (self.e >= 0.0) & (self.e < 1.0),
-                 "an eccentricity in [0, 1) (elliptic chief)"),
-                ("orbit.mu", jnp.isfinite(self.mu) & (self.mu > 0.0),
-                 "a positive, finite gravitational parameter in m^3/s^2"),
-                *[(f"orbit.{n}", ok, "a finite angle in rad") for n, ok in finite.items()]]
+        return [Rule("orbit.a", jnp.isfinite(self.a) & (self.a > 0.0),
+                     "a positive, finite semi-major axis in m"),
+                Rule("orbit.e", jnp.isfinite(self.e) & (self.e >= 0.0) & (self.e < 1.0),
+                     "an eccentricity in [0, 1) (elliptic chief)"),
+                Rule("orbit.mu", jnp.isfinite(self.mu) & (self.mu > 0.0),
+                     "a positive, finite gravitational parameter in m^3/s^2"),
+                *[Rule(f"orbit.{n}", ok, "a finite angle in rad") for n, ok in finite.items()]]
 
-    def validate_static(self) -> None:
+    def static_rules(self) -> None:
         """Raise ValueError unless every field is a real scalar (known at trace time too)."""
-        for name in ("a", "e", *ANGLES, "mu"):
-            check_shape(f"orbit.{name}", getattr(self, name), ())
+        check_scalars("orbit.", self, ("a", "e", *ANGLES, "mu"))
 
-    def validate(self) -> None:
-        """Raise ValueError naming the first invalid field (concrete input)."""
-        self.validate_static()
-        for name, ok, allowed in self.checks():
-            if not bool(ok):
-                raise ValueError(f"{name} must be {allowed}, got {getattr(self, name[6:])}")
-
-    def validity(self):
-        """In-graph validity flag (the checks of `validate`), for traced input."""
-        flags = [ok for _, ok, _ in self.checks()]
-        return functools.reduce(jnp.logical_and, flags)
-
-    def sanitized(self, valid):
-        """A copy with a harmless circular orbit where `valid` is False (batched invalid
-        members compute finite numbers, which the solvers then zero)."""
-        pick = lambda v, safe: jnp.where(valid, v, safe)  # noqa: E731
-        return self.replace(a=pick(self.a, 7.0e6), e=pick(self.e, 0.0), mu=pick(self.mu, MU_EARTH),
-                            **{n: pick(getattr(self, n), 0.0) for n in ANGLES})
+    def harmless(self) -> "KeplerOrbit":
+        """A valid circular orbit (stands in for an invalid member of a batch)."""
+        return KeplerOrbit(a=7.0e6, e=0.0, i=0.0, raan=0.0, argp=0.0, f0=0.0, mu=MU_EARTH)
 
     @property
     def p(self):

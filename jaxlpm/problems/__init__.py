@@ -2,6 +2,6 @@
 an NLP (`jaxlpm.nlp`)."""
 
 from .min_time import MinimumTimeTransfer
-from .transfer import MODELS, EnergyOptimalTransfer, check_problem
+from .energy_optimal import MODELS, EnergyOptimalTransfer, check_problem
 
 __all__ = ["EnergyOptimalTransfer", "MODELS", "MinimumTimeTransfer", "check_problem"]

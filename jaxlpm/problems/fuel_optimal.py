@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 import jax
 import jax.numpy as jnp
 
-from .._validation import check_finite, check_shape, coerce_sequences, is_concrete
+from .._validation import Checked, Rule, check_shape, coerce_sequences
 from ..constants import G0
 from ..dynamics import hcw_matrix
 from ..linalg import dense_solve
@@ -38,8 +38,17 @@ from ..orbits import KeplerOrbit
 
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
-class FuelOptimalTransfer:
-    """See the module docstring. duration (s), thrust_max (N), mass (kg), isp (s)."""
+class FuelOptimalTransfer(Checked):
+    """Minimise the delta-v int |u| dt (m/s) from x0 to xf in `duration` with |u| bounded.
+
+    orbit        the chief's circular `KeplerOrbit` (e = 0: HCW; SI, rad); t = 0 at its epoch
+    x0, xf       LVLH states [x, y, z, vx, vy, vz] (m, m/s; x radial outward, y along-track,
+                 z orbit normal)
+    duration     t_f (s, fixed)
+    thrust_max   the thrust bound T_max (N); u_max = T_max / mass (m/s^2)
+    mass         the spacecraft's mass (kg, held constant in the dynamics)
+    isp          specific impulse (s), for the propellant mass by the rocket equation
+    """
 
     orbit: KeplerOrbit
     x0: jax.Array
@@ -60,64 +69,40 @@ class FuelOptimalTransfer:
         """u_max = T_max / m (m/s^2)."""
         return self.thrust_max / self.mass
 
-    def validate(self) -> None:
-        """Raise ValueError naming what is wrong and what is allowed (concrete inputs)."""
-        check_shape("x0", self.x0, (6,))
-        check_shape("xf", self.xf, (6,))
-        check_finite("x0", self.x0)
-        check_finite("xf", self.xf)
-        self.orbit.validate()
-        if float(self.orbit.e) != 0.0:
-            raise ValueError(f"fuel-optimal transfers use the HCW equations: the chief must be "
-                             f"circular (orbit.e = 0), got e = {self.orbit.e}")
-        for name, unit in (("duration", "s"), ("thrust_max", "N"), ("mass", "kg"),
-                           ("isp", "s")):
-            value = getattr(self, name)
-            check_shape(name, value, ())
-            if not float(check_finite(name, value)) > 0.0:
-                raise ValueError(f"{name} must be positive ({unit}), got {value}")
-        if bool(jnp.all(self.x0 == self.xf)):
-            raise ValueError("x0 equals xf: the fuel-optimal transfer is no thrust at all")
+    def rules(self):
+        """Validity rules, written once (`jaxlpm._validation.Checked`)."""
+        positive = [Rule(name, jnp.isfinite(getattr(self, name)) & (getattr(self, name) > 0.0),
+                         f"positive and finite ({unit})")
+                    for name, unit in (("duration", "s"), ("thrust_max", "N"), ("mass", "kg"),
+                                       ("isp", "s"))]
+        return [*self.orbit.rules(),
+                Rule("orbit.e", self.orbit.e == 0.0,
+                     "0: fuel-optimal transfers use the HCW equations (circular chief)"),
+                Rule("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
+                Rule("xf", jnp.all(jnp.isfinite(self.xf)), "finite (m, m/s)"),
+                *positive,
+                Rule("xf", jnp.any(self.x0 != self.xf),
+                     "different from x0 (the fuel-optimal transfer is no thrust at all)")]
 
-    def validity(self):
-        """In-graph validity flag for traced inputs (the checks of `validate`)."""
-        o = self.orbit
-        leaves = [self.x0, self.xf, self.duration, self.thrust_max, self.mass, self.isp]
-        finite = jnp.all(jnp.stack([jnp.all(jnp.isfinite(v)) for v in leaves]))
-        return (finite & o.validity() & (o.e == 0.0) & (self.duration > 0.0)
-                & (self.thrust_max > 0.0) & (self.mass > 0.0) & (self.isp > 0.0)
-                & jnp.any(self.x0 != self.xf))
+    def static_rules(self) -> None:
+        for name, shape in (("x0", (6,)), ("xf", (6,)), ("duration", ()), ("thrust_max", ()),
+                            ("mass", ()), ("isp", ())):
+            check_shape(name, getattr(self, name), shape)
+        self.orbit.static_rules()
 
-    def sanitized(self, valid):
-        """A harmless copy where `valid` is False (an invalid member of a batch)."""
-        o = self.orbit
-        pick = lambda v, safe: jnp.where(valid, v, safe)  # noqa: E731
-        return self.replace(
-            orbit=o.sanitized(valid),
-            x0=pick(self.x0, 0.0),
-            xf=pick(self.xf, jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0])),
-            duration=pick(self.duration, 5000.0), thrust_max=pick(self.thrust_max, 1.0),
-            mass=pick(self.mass, 100.0), isp=pick(self.isp, 300.0))
+    def harmless(self) -> "FuelOptimalTransfer":
+        """A valid transfer (100 m along-track from rest in 5000 s, 1 N on 100 kg)."""
+        return FuelOptimalTransfer(
+            orbit=self.orbit.harmless(), x0=jnp.zeros(6),
+            xf=jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), duration=5000.0, thrust_max=1.0,
+            mass=100.0, isp=300.0)
 
 
 def check_fuel_problem(problem: FuelOptimalTransfer) -> None:
-    """Validate at the Python boundary when the inputs are concrete."""
+    """Validate at the Python boundary (everything when concrete, shapes when traced)."""
     if not isinstance(problem, FuelOptimalTransfer):
         raise ValueError(f"problem must be a FuelOptimalTransfer, got {type(problem).__name__}")
-    if is_concrete(problem):
-        problem.validate()
-
-
-def length_scale(problem: FuelOptimalTransfer):
-    """L = max(|r0|, |rf|, 1 m)."""
-    return jnp.maximum(jnp.maximum(jnp.linalg.norm(problem.x0[:3]),
-                                   jnp.linalg.norm(problem.xf[:3])), 1.0)
-
-
-def state_scale(problem: FuelOptimalTransfer):
-    """SI state = state_scale * the solver's state ([L] * 3, [L n] * 3)."""
-    L, n = length_scale(problem), problem.orbit.mean_motion
-    return jnp.concatenate([jnp.full(3, L), jnp.full(3, L * n)])
+    problem.check()
 
 
 def rocket_fuel(dv, problem: FuelOptimalTransfer):

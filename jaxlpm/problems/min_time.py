@@ -31,17 +31,27 @@ from dataclasses import dataclass, replace
 import jax
 import jax.numpy as jnp
 
-from .._validation import check_finite, check_shape, coerce_sequences, is_concrete
+import numpy as np
+
+from .._validation import Checked, Rule, check_shape, coerce_sequences
 from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
+from .scaling import length_scale, state_scale
 from ..nlp.ocp import OptimalControlProblem
 
 
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
-class MinimumTimeTransfer:
-    """See the module docstring. `duration_bounds` = [t_min, t_max] (s; inf allowed;
-    None: [0, inf))."""
+class MinimumTimeTransfer(Checked):
+    """Minimise the transfer time t_f (s) from x0 to xf at constant thrust (module docstring).
+
+    orbit            the chief's circular `KeplerOrbit` (e = 0: HCW; SI, rad); t = 0 at its
+                     epoch
+    x0, xf           LVLH states [x, y, z, vx, vy, vz] (m, m/s; x radial outward, y
+                     along-track, z orbit normal)
+    thrust, mass     constant thrust magnitude (N) and mass (kg, held constant)
+    duration_bounds  [t_min, t_max] (s; inf allowed; None: [0, inf))
+    """
 
     orbit: KeplerOrbit
     x0: jax.Array
@@ -51,6 +61,8 @@ class MinimumTimeTransfer:
     duration_bounds: jax.Array = None
 
     def __post_init__(self):
+        if self.duration_bounds is None:
+            object.__setattr__(self, "duration_bounds", np.array([0.0, np.inf]))
         coerce_sequences(self)
 
     def replace(self, **kwargs) -> "MinimumTimeTransfer":
@@ -59,8 +71,6 @@ class MinimumTimeTransfer:
     @property
     def bounds(self):
         """[t_min, t_max] (s)."""
-        if self.duration_bounds is None:
-            return jnp.array([0.0, jnp.inf])
         return jnp.asarray(self.duration_bounds)
 
     @property
@@ -68,65 +78,35 @@ class MinimumTimeTransfer:
         """Thrust acceleration T / m (m/s^2)."""
         return self.thrust / self.mass
 
-    def validate(self) -> None:
-        """Raise ValueError naming what is wrong and what is allowed (concrete inputs)."""
-        check_shape("x0", self.x0, (6,))
-        check_shape("xf", self.xf, (6,))
-        check_shape("duration_bounds", self.bounds, (2,))
-        check_finite("x0", self.x0)
-        check_finite("xf", self.xf)
-        self.orbit.validate()
-        if float(self.orbit.e) != 0.0:
-            raise ValueError(f"minimum-time transfers use the HCW equations: the chief must be "
-                             f"circular (orbit.e = 0), got e = {self.orbit.e}")
-        for name in ("thrust", "mass"):
-            check_shape(name, self.thrust if name == "thrust" else self.mass, ())
-            if not float(check_finite(name, getattr(self, name))) > 0.0:
-                raise ValueError(f"{name} must be positive (N, kg), got {getattr(self, name)}")
-        lo, hi = (float(b) for b in self.bounds)
-        if not (lo >= 0.0 and lo < hi):
-            raise ValueError(f"duration_bounds must satisfy 0 <= t_min < t_max (s), got "
-                             f"[{lo}, {hi}]")
-        if bool(jnp.all(self.x0 == self.xf)):
-            raise ValueError("x0 equals xf: the minimum time is 0 (nothing to transfer)")
+    def rules(self):
+        """Validity rules, written once (`jaxlpm._validation.Checked`)."""
+        lo, hi = self.bounds[0], self.bounds[1]
+        return [*self.orbit.rules(),
+                Rule("orbit.e", self.orbit.e == 0.0,
+                     "0: minimum-time transfers use the HCW equations (circular chief)"),
+                Rule("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
+                Rule("xf", jnp.all(jnp.isfinite(self.xf)), "finite (m, m/s)"),
+                Rule("thrust", jnp.isfinite(self.thrust) & (self.thrust > 0.0),
+                     "positive and finite (N)"),
+                Rule("mass", jnp.isfinite(self.mass) & (self.mass > 0.0),
+                     "positive and finite (kg)"),
+                Rule("duration_bounds", ~jnp.isnan(lo) & ~jnp.isnan(hi) & (lo >= 0.0)
+                     & (lo < hi), "[t_min, t_max] with 0 <= t_min < t_max (s)"),
+                Rule("xf", jnp.any(self.x0 != self.xf),
+                     "different from x0 (the minimum time of no transfer is 0)")]
 
-    def validity(self):
-        """In-graph validity flag for traced inputs (the checks of `validate`)."""
-        o, (lo, hi) = self.orbit, self.bounds
-        finite = jnp.all(jnp.isfinite(self.x0)) & jnp.all(jnp.isfinite(self.xf))
-        finite &= jnp.isfinite(self.thrust) & jnp.isfinite(self.mass)
-        finite &= ~jnp.isnan(lo) & ~jnp.isnan(hi)
-        return (finite & o.validity() & (o.e == 0.0) & (self.thrust > 0.0) & (self.mass > 0.0)
-                & (lo >= 0.0) & (lo < hi) & jnp.any(self.x0 != self.xf))
+    def static_rules(self) -> None:
+        for name, shape in (("x0", (6,)), ("xf", (6,)), ("thrust", ()), ("mass", ()),
+                            ("duration_bounds", (2,))):
+            check_shape(name, getattr(self, name), shape)
+        self.orbit.static_rules()
 
-    def sanitized(self, valid):
-        """A copy with a harmless problem where `valid` is False (finite numbers, then zeroed,
-        for an invalid member of a batch)."""
-        o = self.orbit
-        return self.replace(
-            orbit=o.sanitized(valid),
-            x0=jnp.where(valid, self.x0, 0.0),
-            xf=jnp.where(valid, self.xf, jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0])),
-            thrust=jnp.where(valid, self.thrust, 1.0), mass=jnp.where(valid, self.mass, 100.0),
-            duration_bounds=jnp.where(valid, self.bounds, jnp.array([0.0, jnp.inf])))
-
-
-def check_min_time_problem(problem: MinimumTimeTransfer) -> None:
-    """Validate at the Python boundary when the inputs are concrete."""
-    if is_concrete(problem):
-        problem.validate()
-
-
-def length_scale(problem: MinimumTimeTransfer):
-    """L = max(|r0|, |rf|, 1 m)."""
-    return jnp.maximum(jnp.maximum(jnp.linalg.norm(problem.x0[:3]),
-                                   jnp.linalg.norm(problem.xf[:3])), 1.0)
-
-
-def state_scale(problem: MinimumTimeTransfer):
-    """SI state = state_scale * the solver's state."""
-    L, n = length_scale(problem), problem.orbit.mean_motion
-    return jnp.concatenate([jnp.full(3, L), jnp.full(3, L * n)])
+    def harmless(self) -> "MinimumTimeTransfer":
+        """A valid transfer (100 m along-track from rest, 1 N on 100 kg)."""
+        return MinimumTimeTransfer(
+            orbit=self.orbit.harmless(), x0=jnp.zeros(6),
+            xf=jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), thrust=1.0, mass=100.0,
+            duration_bounds=jnp.array([0.0, jnp.inf]))
 
 
 def _dynamics(s, x, u, data, p):

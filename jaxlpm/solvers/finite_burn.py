@@ -56,7 +56,7 @@ from .._validation import check_finite, check_shape, is_concrete, require_x64
 from ..collocation import Grid
 from ..constants import G0
 from ..dynamics.gravity import inertial_rhs
-from ..dynamics.propagation import propagate, solve_ode
+from ..dynamics.propagation import VARIATIONAL, propagate, solve_ode
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import pack, unpack
 from ..status import Status
@@ -245,8 +245,7 @@ def _second_order_stm(x_e, duration, p):
                 + jnp.einsum("imn,mk,nl->ikl", Hf, P, P))
 
     Y0 = (x_e / scale, jnp.eye(6), jnp.zeros((6, 6, 6)))
-    ys, status = solve_ode(rhs, Y0, 0.0, duration, diffrax.SaveAt(t1=True), 1e-9, 1e-9,
-                           100_000)
+    ys, status = solve_ode(rhs, Y0, 0.0, duration, diffrax.SaveAt(t1=True), VARIATIONAL)
     _, P, Q = (leaf[-1] for leaf in ys)
     Phi = P * scale[:, None] / scale[None, :]
     Psi = Q * scale[:, None, None] / (scale[None, :, None] * scale[None, None, :])

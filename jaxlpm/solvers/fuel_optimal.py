@@ -3,7 +3,7 @@ LGR collocation and the energy-to-fuel homotopy (`jaxlpm.nlp.homotopy`), with me
 refinement at the switching times (Yue & Duan 2016's pipeline: an energy-optimal Radau
 pseudospectral solution, then the homotopy to the bang-bang fuel optimum).
 
-`fuel_optimal_transfer(problem, mesh)`: one mesh (jit; vmap over problems and meshes of one
+`jaxlpm.solve(problem, mesh)` (`run`): one mesh (jit; vmap over problems and meshes of one
 shape). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method, shooting on the
 costates with the smoothed switching law, continued in eps from the LGR costates.
 `refine_fuel_optimal(problems, segments, points)`: host-side passes over meshes with a break at
@@ -18,6 +18,7 @@ paper's eq. 34). At the collocation points the estimates p_i = -E_i^T nu / c_i (
 estimates, Garg et al. 2010) agree with it to the mesh's accuracy. Burn arcs are where |p| > 1.
 """
 
+import dataclasses
 from dataclasses import dataclass
 
 import jax
@@ -28,79 +29,30 @@ from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
 from ..collocation.segments import SegmentedMesh, aligned_breaks, segmented_lgr, uniform_breaks
 from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, condensed_lgr,
-                                     hcw_flow, hcw_input_matrices, length_scale, rocket_fuel,
-                                     state_scale)
-from ..status import Status, describe
+                                     hcw_flow, hcw_input_matrices, rocket_fuel)
+from ..problems.scaling import length_scale, state_scale
+from ..status import Status
 from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel, primers
+from ..solution import Segmented, Solution
+from .family import FamilySolver
 
 MIN_POINTS = 3
 MAX_SWITCHES = 16          # switching times found per solution (burn arcs = switches / 2)
 SCAN_POINTS = 20001        # samples of |p(t)| searched for switches (then bisection)
 
 
-@jax.tree_util.register_dataclass
-@dataclass(frozen=True)
-class FuelOptimalSolution:
-    """Solution of a `FuelOptimalTransfer` in SI (LVLH, m, m/s, m/s^2, s, kg).
+def primer(sol, t):
+    """Primer vector p(t) (3,) of a fuel-optimal `Solution` from its costates (module
+    docstring), t in s since the start."""
+    n = sol.problem.orbit.mean_motion
+    _, B = hcw_input_matrices()
+    flow = hcw_flow(n * (sol.problem.duration - t))
+    return -B.T @ flow.T @ sol.stats["multipliers"]
 
-    breaks (K + 1,) segment breaks in s; node_times (K, n); node_controls (K, n, 3) m/s^2;
-    node_throttle (K, n) |u| / u_max; node_primers (K, n, 3) p_i (dimensionless, |p| = 1 is
-    the switching threshold); state_times (K, n + 1), states (K, n + 1, 6)
-    dv (m/s) = int |u| dt, fuel (kg, rocket equation); energy_*: the eps = 1 (energy-like)
-    solution on the same mesh, energy_cost its 1/2 int |u|^2 dt (m^2/s^3); eps the smoothing
-    reached; multipliers nu (solver units; p(s) above); terminal_error [position m,
-    velocity m/s] of the collocated final state; status, homotopy_steps, failed_steps,
-    newton_iterations.
-    """
 
-    problem: FuelOptimalTransfer
-    breaks: jax.Array
-    node_times: jax.Array
-    node_controls: jax.Array
-    node_throttle: jax.Array
-    node_primers: jax.Array
-    state_times: jax.Array
-    states: jax.Array
-    dv: jax.Array
-    fuel: jax.Array
-    energy_node_controls: jax.Array
-    energy_dv: jax.Array
-    energy_fuel: jax.Array
-    energy_cost: jax.Array
-    eps: jax.Array
-    multipliers: jax.Array
-    energy_multipliers: jax.Array
-    terminal_error: jax.Array
-    energy_terminal_error: jax.Array
-    status: jax.Array
-    homotopy_steps: jax.Array
-    failed_steps: jax.Array
-    newton_iterations: jax.Array
-
-    @property
-    def message(self) -> str:
-        """Status in words (unbatched)."""
-        st = Status(int(self.status))
-        if st == Status.STALLED:
-            return (f"homotopy stalled: eps could not be driven below {float(self.eps):.3g} "
-                    f"(the continuation step fell below its minimum); the result is the "
-                    f"eps = {float(self.eps):.3g} solution")
-        if st == Status.INFEASIBLE:
-            return ("infeasible: the thrust bound cannot reach the target in the transfer time "
-                    "(full thrust everywhere, or the dual ascent diverged); terminal_error is "
-                    "the miss")
-        return describe(st)
-
-    def primer(self, t):
-        """Primer vector p(t) (3,) from the costates (module docstring), t in s."""
-        n = self.problem.orbit.mean_motion
-        _, B = hcw_input_matrices()
-        flow = hcw_flow(n * (self.problem.duration - t))
-        return -B.T @ flow.T @ self.multipliers
-
-    def switching_function(self, t):
-        """rho(t) = 1 - |p(t)| (paper eq. 34): the engine fires where rho < 0."""
-        return 1.0 - jnp.linalg.norm(self.primer(t))
+def switching_function(sol, t):
+    """rho(t) = 1 - |p(t)| (Yue & Duan 2016 eq. 34): the engine fires where rho < 0."""
+    return 1.0 - jnp.linalg.norm(primer(sol, t))
 
 
 def _fuel_optimal_transfer(problem, mesh, options):
@@ -139,29 +91,42 @@ def _fuel_optimal_transfer(problem, mesh, options):
     def keep(x):
         return jnp.where(valid, x, jnp.zeros_like(x))
 
-    return FuelOptimalSolution(
-        problem=problem, breaks=keep(m.breaks / n), node_times=keep(m.points / n),
-        node_controls=keep(U * a_si),
-        node_throttle=keep(jnp.linalg.norm(v, axis=1).reshape(K, npts)),
-        node_primers=keep(primers(res.nu, E, c).reshape(K, npts, 3)),
-        state_times=keep(m.state_points / n), states=keep(X * scale), dv=keep(dv),
-        fuel=keep(rocket_fuel(dv, problem)), energy_node_controls=keep(Ue * a_si),
-        energy_dv=keep(dve), energy_fuel=keep(rocket_fuel(dve, problem)),
-        energy_cost=keep(energy_cost), eps=res.eps, multipliers=keep(res.nu),
-        energy_multipliers=keep(res.nu_energy), terminal_error=keep(err),
-        energy_terminal_error=keep(erre),
-        status=jnp.where(valid, res.status, Status.INVALID_INPUT).astype(jnp.int32),
-        homotopy_steps=res.steps, failed_steps=res.failed_steps,
-        newton_iterations=res.newton_iterations)
+    # costates of the transcribed problem: dJ~/dx~(s) = exp(A (s_f - s))^T nu (the final-state
+    # multipliers; module docstring); J = dv = L n J~ and x~ = x / scale in SI
+    lam = jax.vmap(lambda s: hcw_flow(sf - s).T @ res.nu)(m.points.reshape(-1))
+    node_costates = (length_scale(problem) * n) * lam / scale
+    duration = problem.duration + 0.0 * dv
+    trajectory = Segmented(
+        mesh=mesh, duration=duration, times=keep(m.points / n), node_controls=keep(U * a_si),
+        node_costates=keep(node_costates.reshape(K, npts, 6)),
+        state_times=keep(m.state_points / n), node_states=keep(X * scale))
+    return Solution(
+        problem=problem, status=jnp.where(valid, res.status, Status.INVALID_INPUT).astype(
+            jnp.int32),
+        cost=keep(dv), duration=duration, trajectory=trajectory,
+        stats=dict(node_throttle=keep(jnp.linalg.norm(v, axis=1).reshape(K, npts)),
+                   node_primers=keep(primers(res.nu, E, c).reshape(K, npts, 3)),
+                   fuel=keep(rocket_fuel(dv, problem)),
+                   energy_node_controls=keep(Ue * a_si), energy_dv=keep(dve),
+                   energy_fuel=keep(rocket_fuel(dve, problem)), energy_cost=keep(energy_cost),
+                   eps=res.eps, multipliers=keep(res.nu), energy_multipliers=keep(res.nu_energy),
+                   terminal_error=keep(err), energy_terminal_error=keep(erre),
+                   homotopy_steps=res.steps, failed_steps=res.failed_steps,
+                   newton_iterations=res.newton_iterations),
+        method="homotopy")
 
 
 _compiled = jax.jit(_fuel_optimal_transfer, static_argnames="options")
 
 
-def _check_mesh(mesh):
+DEFAULT_SEGMENTS, DEFAULT_POINTS = 24, 8     # Yue & Duan 2016's mesh
+
+
+def check_grid(mesh, method):
     if not isinstance(mesh, SegmentedMesh):
-        raise ValueError(f"mesh must be a SegmentedMesh (segmented_lgr(breaks, n)), got "
-                         f"{type(mesh).__name__}")
+        raise ValueError(f"the grid of a fuel-optimal transfer is a SegmentedMesh "
+                         f"(segmented_lgr(breaks, n), breaks as fractions of the duration), "
+                         f"got {type(mesh).__name__}")
     if mesh.grid.n < MIN_POINTS:
         raise ValueError(f"fuel-optimal transfers need at least {MIN_POINTS} LGR points per "
                          f"segment, got {mesh.grid.n}")
@@ -172,21 +137,24 @@ def _check_mesh(mesh):
                              f"from 0 to 1, got [{b[0]}, {b[-1]}]")
 
 
-def fuel_optimal_transfer(problem: FuelOptimalTransfer, mesh: SegmentedMesh,
-                          options: HomotopyOptions = HomotopyOptions()) -> FuelOptimalSolution:
+def run(problem, mesh, method, options: HomotopyOptions) -> Solution:
     """Solve on one segmented LGR mesh whose breaks are fractions of the transfer time (from
     0 to 1). jit-compiled once per mesh shape and options; vmap-able over problems and
-    meshes. Concrete bad input raises ValueError; traced bad input gives INVALID_INPUT."""
-    require_x64()
-    check_fuel_problem(problem)
-    _check_mesh(mesh)
+    meshes. Traced bad input gives INVALID_INPUT."""
     return _compiled(problem, mesh, options)      # traced too: one program, not op by op
+
+
+FAMILY = FamilySolver(
+    problem=FuelOptimalTransfer, methods={"homotopy": HomotopyOptions}, run=run,
+    default_grid=lambda problem: segmented_lgr(uniform_breaks(0.0, 1.0, DEFAULT_SEGMENTS),
+                                               DEFAULT_POINTS),
+    check_grid=check_grid)
 
 
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class IndirectSolution:
-    """Outcome of `indirect_fuel_optimal` (SI; see `FuelOptimalSolution` for the fields)."""
+    """Outcome of `indirect_fuel_optimal` (SI; see the fuel-optimal `Solution` for the fields)."""
 
     multipliers: jax.Array
     eps: jax.Array
@@ -257,10 +225,10 @@ def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points
 
 @jax.jit
 def _primer_norm(sol, ts):
-    return jax.vmap(lambda t: jnp.linalg.norm(sol.primer(t)))(ts)
+    return jax.vmap(lambda t: jnp.linalg.norm(primer(sol, t)))(ts)
 
 
-def switching_times(sol: FuelOptimalSolution, max_switches: int = MAX_SWITCHES):
+def switching_times(sol: Solution, max_switches: int = MAX_SWITCHES):
     """Times (s, ascending NumPy array) where |p(t)| crosses 1 (unbatched solution): a scan
     of SCAN_POINTS samples, then 60 bisections of each bracketed crossing."""
     T = float(sol.problem.duration)
@@ -277,7 +245,7 @@ def switching_times(sol: FuelOptimalSolution, max_switches: int = MAX_SWITCHES):
     return 0.5 * (lo + hi)
 
 
-def burn_arcs(sol: FuelOptimalSolution):
+def burn_arcs(sol: Solution):
     """[(start, end)] (s) of the burns: the arcs where |p(t)| > 1 (unbatched solution)."""
     T = float(sol.problem.duration)
     sw = switching_times(sol)
@@ -291,26 +259,16 @@ def _member(tree, i):
     return jax.tree_util.tree_map(lambda x: x[i], tree)
 
 
-@dataclass(frozen=True)
-class RefinementPass:
-    """One pass of `refine_fuel_optimal`: the (batched) solution on that pass's meshes, the
-    breaks used (fractions of t_f, (B, K + 1)) and the relative fuel change from the previous
-    pass (inf for the first)."""
-
-    solution: FuelOptimalSolution
-    breaks: np.ndarray
-    fuel_change: np.ndarray
-
-
 def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, points: int = 8,
                         fuel_tol: float = 1e-4, max_passes: int = 5,
-                        options: HomotopyOptions = HomotopyOptions()):
+                        options: HomotopyOptions = HomotopyOptions()) -> Solution:
     """Solve a batch of problems (leading axis on every array leaf; one problem: add it with
     `jax.tree_util.tree_map(lambda x: x[None], p)`) on `segments` LGR segments of `points`
     points: first a uniform mesh, then meshes with breaks at the previous switching times,
     until every member's fuel changes by less than fuel_tol (relative) or max_passes.
-    Each pass is one vmapped call. Returns the list of `RefinementPass`es (the last is the
-    answer)."""
+    Each pass is one vmapped call. Returns the last pass's batched `Solution`, its stats
+    extended by the refinement, one row per member: passes (B,), fuel_by_pass (B, passes)
+    (kg) and fuel_change (B,) (relative change of the last pass; inf after a single pass)."""
     require_x64()
     if not isinstance(problems, FuelOptimalTransfer):
         raise ValueError(f"problems must be a FuelOptimalTransfer, got "
@@ -321,20 +279,18 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
     for i in range(size[0]):
         _member(problems, i).validate()
     grid_mesh = segmented_lgr(uniform_breaks(0.0, 1.0, segments), points)
-    _check_mesh(grid_mesh)
+    check_grid(grid_mesh, "homotopy")
     solve = jax.jit(jax.vmap(lambda p, b: _fuel_optimal_transfer(
         p, SegmentedMesh(breaks=b, grid=grid_mesh.grid), options)))
     breaks = np.tile(np.asarray(grid_mesh.breaks), (size[0], 1))
-    passes, fuel_prev = [], np.full(size[0], np.nan)
+    fuels = []
     for _ in range(max_passes):
         sol = solve(problems, jnp.asarray(breaks))
-        fuel = np.asarray(sol.fuel)
-        change = (np.abs(fuel - fuel_prev) / np.abs(fuel) if passes
+        fuels.append(np.asarray(sol.stats["fuel"]))
+        change = (np.abs(fuels[-1] - fuels[-2]) / np.abs(fuels[-1]) if len(fuels) > 1
                   else np.full(size[0], np.inf))
-        passes.append(RefinementPass(solution=sol, breaks=breaks, fuel_change=change))
-        if np.all(change < fuel_tol):
+        if np.all(change < fuel_tol) or len(fuels) == max_passes:
             break
-        fuel_prev = fuel
         new = []
         for i in range(size[0]):
             member = _member(sol, i)
@@ -342,4 +298,6 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
             sw = switching_times(member) / T
             new.append(aligned_breaks(0.0, 1.0, segments, sw))
         breaks = np.stack(new)
-    return passes
+    stats = dict(sol.stats, passes=np.full(size[0], len(fuels)),
+                 fuel_by_pass=np.stack(fuels, axis=1), fuel_change=change)
+    return dataclasses.replace(sol, stats=stats)

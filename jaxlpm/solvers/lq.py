@@ -33,7 +33,7 @@ from ..dynamics.stm import IP, OP, ya_entries
 from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, small_spd_solve
 from ..orbits import lvlh_to_th, th_to_lvlh, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
-from .solution import Solution
+from ..solution import Collocated, Solution
 
 
 
@@ -62,18 +62,30 @@ def _setup(problem, grid):
                 X0=X0, XT=XT, rho=rho)
 
 
+def lvlh_costates(p_th, f, e, k2, scale):
+    """Costates dJ/dx of the LVLH state (SI: J's unit per m and per m/s) from costates p of
+    the Tschauner-Hempel state at true anomalies f: x~ = T(f) x is linear (`lvlh_to_th`), so
+    dJ/dx = scale T(f)^T p, scale = dJ_SI / dJ_TH."""
+    def one(p, fi):
+        return jax.vjp(lambda x: lvlh_to_th(x, fi, e, k2), jnp.zeros_like(p))[1](p)[0]
+    return scale * jax.vmap(one)(p_th, f)
+
+
 def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, stat_res, rcond):
     """Assemble the Solution: SI outputs, costs, status; zero everything for invalid input."""
     e, k2, rho, half = s["e"], s["k2"], s["rho"], s["half"]
     u = k2**2 * U_nodes                                          # m/s^2
     cost_f = 0.5 * half * jnp.sum(grid.weights * jnp.sum(u**2, axis=1) / rho**2)
     states = jax.vmap(th_to_lvlh, in_axes=(0, 0, None, None))(X_nodes, s["f"], e, k2)
+    # J_SI = 1/2 int |u|^2 dt = k^6 * 1/2 int |U|^2 / rho^2 df (u = k^4 U, dt = df/(k^2 rho^2))
+    node_costates = lvlh_costates(costates, s["f"], e, k2, k2**3)
     outputs = dict(
-        node_f=s["f"], node_times=s["t"], node_states=states, node_states_th=X_nodes,
-        node_controls=u, cost=cost_f / k2, cost_true_anomaly=cost_f, costates=costates,
-        multipliers=multipliers, constraint_residual=con_res, stationarity_residual=stat_res,
-        rcond=rcond)
-    finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(v)) for v in outputs.values()]))
+        node_states=states, node_controls=u, cost=cost_f / k2, node_costates=node_costates,
+        stats=dict(node_f=s["f"], node_states_th=X_nodes, cost_true_anomaly=cost_f,
+                   costates_th=costates, multipliers=multipliers, constraint_residual=con_res,
+                   stationarity_residual=stat_res, rcond=rcond))
+    finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(v))
+                                for v in jax.tree_util.tree_leaves(outputs)]))
     valid = s["valid"]
     scale = jnp.maximum(jnp.max(jnp.abs(s["X0"])), jnp.max(jnp.abs(s["XT"])))
     unreachable = ~(con_res <= REACH_RTOL * scale)     # a removed axis the drift cannot make up
@@ -82,9 +94,16 @@ def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, s
         jnp.where(~(rcond >= RCOND_SINGULAR) | unreachable, Status.SINGULAR,
                   jnp.where(~finite, Status.NONFINITE, Status.SUCCESS)))
     keep = valid & finite
-    outputs = {k: jnp.where(keep, v, 0.0) for k, v in outputs.items()}
-    return Solution(problem=s["prob"], grid=grid, status=status.astype(jnp.int32),
-                    method=method, **outputs)
+    out = jax.tree_util.tree_map(lambda v: jnp.where(keep, v, 0.0), outputs)
+    prob, t = s["prob"], s["t"]
+    trajectory = Collocated(
+        grid=grid, times=t, dt_dtau=half / (k2 * rho**2), node_controls=out["node_controls"],
+        node_costates=out["node_costates"], state_times=t, node_states=out["node_states"],
+        polynomial=out["stats"]["node_states_th"], s0=s["f0"], sf=s["fT"], orbit=prob.orbit,
+        clock="true-anomaly", coordinates="tschauner-hempel")
+    return Solution(problem=prob, status=status.astype(jnp.int32), cost=out["cost"],
+                    duration=prob.duration + 0.0 * e, trajectory=trajectory,
+                    stats=out["stats"], method=method)
 
 
 def _materialized(*xs):

@@ -33,11 +33,10 @@ import math
 import jax
 import jax.numpy as jnp
 
-from .._validation import require_x64
-from ..collocation import Grid
+from ..collocation import Grid, lg
 from ..linalg import cholesky_solve, small_spd_solve
 from ..problems.fuel_optimal import hcw_flow
-from ..problems.min_time import (check_min_time_problem, duration_lower_bound, energy_ocp,
+from ..problems.min_time import (MinimumTimeTransfer, duration_lower_bound, energy_ocp,
                                  min_time_ocp, state_scale)
 from ..nlp.ocp import PathPenalty
 from ..nlp.transcription import (collocation_s, costates, equality, pack, state_tau,
@@ -46,7 +45,8 @@ from ..status import Status
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
 from ..nlp.condensed import CondensedSecondOrder
 from ..nlp.newton import DenseKKT, newton_step
-from .solution import MinimumTimeSolution
+from ..solution import Collocated, Solution
+from .family import FamilySolver
 
 MIN_POINTS = {"LGL": 4, "LG": 3, "LGR": 3}
 DUAL_ITERATIONS = 30       # Newton on p: quadratic where the primer has no zero at a point, and
@@ -204,7 +204,7 @@ def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
     return jnp.where(jnp.any(positive), rhos[jnp.argmax(positive)], options.rho0)
 
 
-def _min_time_transfer(problem, grid, options: ALOptions) -> MinimumTimeSolution:
+def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
     valid = problem.validity()
     problem = problem.sanitized(valid)
     n = problem.orbit.mean_motion
@@ -221,7 +221,7 @@ def _min_time_transfer(problem, grid, options: ALOptions) -> MinimumTimeSolution
     state_s = ocp.s0 + 0.5 * (sf - ocp.s0) * (state_tau(grid) + 1.0)
     node_s = collocation_s(ocp, grid, sf)
     # infeasibility is shown by the lower bound, or by the AL's certificate with the duration
-    # held at t_max (`min_time_transfer`)
+    # held at t_max (`solve_min_time`)
     al_infeasible = result.status == Status.INFEASIBLE
     shown = (t_lb > problem.bounds[1]) | (al_infeasible
                                           & (result.path_multipliers.bounds[1] > 0.0))
@@ -231,29 +231,52 @@ def _min_time_transfer(problem, grid, options: ALOptions) -> MinimumTimeSolution
     def keep(x):
         return jnp.where(valid, x, jnp.zeros_like(x))
 
-    return MinimumTimeSolution(
-        problem=problem, grid=grid, duration=keep((sf - ocp.s0) / n), s0=ocp.s0, sf=sf,
-        node_s=node_s, node_times=keep((node_s - ocp.s0) / n),
-        node_controls=keep(problem.acceleration * U), state_s=state_s,
-        state_times=keep((state_s - ocp.s0) / n), states=keep(X * state_scale(problem)),
-        costates=keep(costates(result.multipliers, ocp, grid)),
-        multipliers=keep(result.multipliers), path_multipliers=result.path_multipliers,
-        constraint_residual=result.constraint_residual, path_residual=result.path_residual,
-        stationarity_residual=result.stationarity_residual,
-        complementarity=result.complementarity, outer_iterations=result.outer_iterations,
-        inner_iterations=result.inner_iterations, history=result.history,
-        status=jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32))
+    duration = keep((sf - ocp.s0) / n)
+    scale = state_scale(problem)
+    states = keep(X * scale)
+    lam = costates(result.z, result.multipliers, ocp, grid)
+    # J = t_f = (s_f - s0) / n and x~ = x / scale: dJ/dx = (dJ~/dx~) / (n scale)
+    trajectory = Collocated(
+        grid=grid, times=keep((node_s - ocp.s0) / n), dt_dtau=0.5 * duration + 0.0 * node_s,
+        node_controls=keep(problem.acceleration * U), node_costates=keep(lam / (n * scale)),
+        state_times=keep((state_s - ocp.s0) / n), node_states=states, polynomial=states,
+        s0=ocp.s0, sf=sf, magnitude=problem.acceleration, clock="uniform")
+    return Solution(
+        problem=problem, status=jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32),
+        cost=duration, duration=duration, trajectory=trajectory,
+        stats=dict(node_s=node_s, state_s=state_s, node_directions=keep(U),
+                   costates_scaled=keep(lam), multipliers=keep(result.multipliers),
+                   path_multipliers=result.path_multipliers,
+                   constraint_residual=result.constraint_residual,
+                   path_residual=result.path_residual,
+                   stationarity_residual=result.stationarity_residual,
+                   complementarity=result.complementarity,
+                   outer_iterations=result.outer_iterations,
+                   inner_iterations=result.inner_iterations, history=result.history,
+                   duration_lower_bound=t_lb),
+        method="augmented-lagrangian")
 
 
 _compiled = jax.jit(_min_time_transfer, static_argnames="options")
 
 
-def min_time_transfer(problem, grid, options: ALOptions = ALOptions()) -> MinimumTimeSolution:
+DEFAULT_POINTS = 32
+
+
+def check_grid(grid, method):
+    if not isinstance(grid, Grid):
+        raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(n), lgr(n): n points), got "
+                         f"{grid!r:.60}")
+    if grid.n < MIN_POINTS[grid.scheme]:
+        raise ValueError(f"minimum-time transfers need at least {MIN_POINTS[grid.scheme]} "
+                         f"{grid.scheme} points, got {grid.n}")
+
+
+def run(problem, grid, method, options: ALOptions) -> Solution:
     """Solve a `MinimumTimeTransfer` on `grid` (LGL, LG or LGR) by the augmented-Lagrangian
     solver; outputs in SI (LVLH, m, m/s, m/s^2, s). jit-compiled once per grid size (and
-    options) for concrete inputs; vmap- and grad-able (implicit differentiation at the KKT
-    point). Concrete bad input raises ValueError; traced bad input gives status
-    INVALID_INPUT and zeroed outputs.
+    options); vmap- and grad-able (implicit differentiation at the KKT point). Traced bad
+    input gives status INVALID_INPUT and zeroed outputs.
 
     INFEASIBLE only where infeasibility is shown: t_max below `duration_lower_bound`, or the
     AL's certificate (the violation stalls with the penalty at its cap) with the t_max bound
@@ -263,11 +286,9 @@ def min_time_transfer(problem, grid, options: ALOptions = ALOptions()) -> Minimu
     means a grid too coarse for the transfer's revolutions (the state oscillates once per
     orbit, and a global polynomial needs several points per orbit: 64 LG points resolve the
     5 orbits of a 0.01 N transfer in the tests, 16 do not)."""
-    require_x64()
-    if not isinstance(grid, Grid):
-        raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(k), lgr(k)), got {grid!r:.60}")
-    check_min_time_problem(problem)
-    if grid.n < MIN_POINTS[grid.scheme]:
-        raise ValueError(f"minimum-time transfers need at least {MIN_POINTS[grid.scheme]} "
-                         f"{grid.scheme} points, got {grid.n}")
     return _compiled(problem, grid, options)      # traced too: one program, not op by op
+
+
+FAMILY = FamilySolver(problem=MinimumTimeTransfer, methods={"augmented-lagrangian": ALOptions},
+                      run=run, default_grid=lambda problem: lg(DEFAULT_POINTS),
+                      check_grid=check_grid)

@@ -1,7 +1,7 @@
 """Energy-optimal transfers on any model and grid by the Newton-KKT solver.
 
 The transfer is written as an `OptimalControlProblem` in the chief's anomaly
-(`jaxlpm.problems.relative`), warm-started from the linear model's KKT solution on the same
+(`jaxlpm.problems.energy_optimal`), warm-started from the linear model's KKT solution on the same
 grid (Mei 2010 §3.2's law on LGL; one Newton step of the same QP on LG and LGR), and solved by
 `newton_kkt` (its KKT systems by the condensed null-space solve on the nonlinear models, see
 `newton_transfer`). Outputs are in SI (LVLH, m, m/s, m/s^2); gradients with respect to the problem's array leaves (e, a,
@@ -11,16 +11,17 @@ duration, boundary states, J2) come from the implicit function theorem at the KK
 import jax
 import jax.numpy as jnp
 
-from ..problems.relative import (control_scale, cost_scale, lvlh_state, model_state,
+from ..problems.energy_optimal import (control_scale, cost_scale, lvlh_state, model_state,
                                  transfer_ocp)
 from ..nlp.transcription import (collocated_rows, collocation_s, costates, equality,
                                       objective, pack, state_tau, unpack)
+from ..dynamics.chief import anomaly_rate
 from ..linalg import sequential_when_batched
 from ..status import Status
 from .lq import kkt_law
 from ..nlp.condensed import CondensedSecondOrder
 from ..nlp.newton import DenseKKT, NewtonOptions, newton_kkt, newton_step
-from .solution import TransferSolution
+from ..solution import Collocated, Solution
 
 
 def _warm_start(problem, ocp, grid):
@@ -76,7 +77,7 @@ def _condensable(problem, grid):
 
 
 def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
-                    warm_start: bool = True, linear_algebra: str = "auto") -> TransferSolution:
+                    warm_start: bool = True, linear_algebra: str = "auto") -> Solution:
     """Solve `problem` (any model) on `grid` (any scheme) by Newton-KKT.
 
     linear_algebra: how each Newton-KKT system is solved: "dense" (`DenseKKT`, one LU of the
@@ -124,15 +125,28 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     def keep(x):
         return jnp.where(valid, x, jnp.zeros_like(x))
 
-    node_times = chief.t[collocated_rows(grid)]
-    return TransferSolution(
-        problem=problem, grid=grid, s0=ocp.s0, sf=ocp.sf,
-        node_s=collocation_s(ocp, grid), node_times=node_times,
-        node_controls=keep(U * control_scale(problem)),
-        state_s=state_s, state_times=chief.t, states=keep(states),
-        cost=keep(cost), cost_true_anomaly=keep(problem.orbit.k2 * cost),
-        costates=keep(costates(result.multipliers, ocp, grid)),
-        multipliers=keep(result.multipliers),
-        constraint_residual=keep(result.constraint_residual),
-        stationarity_residual=keep(result.stationarity_residual),
-        iterations=result.iterations, history=keep(result.history), status=status)
+    rows = collocated_rows(grid)
+    node_s = collocation_s(ocp, grid)
+    # the solver's costates are dJ~/dx~ of its scaled state x~ = model_state(x); in SI
+    # dJ/dx = cost_scale (dx~/dx)^T dJ~/dx~
+    lam = costates(result.z, result.multipliers, ocp, grid)
+    node_costates = cost_scale(problem) * jax.vmap(
+        lambda p, s: jax.vjp(lambda x: model_state(problem, x, s), jnp.zeros(6))[1](p)[0])(
+            lam, node_s)
+    states = keep(states)
+    trajectory = Collocated(
+        grid=grid, times=chief.t[rows],
+        dt_dtau=0.5 * (ocp.sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[rows]),
+        node_controls=keep(U * control_scale(problem)), node_costates=keep(node_costates),
+        state_times=chief.t, node_states=states, polynomial=states, s0=ocp.s0, sf=ocp.sf,
+        orbit=problem.orbit, clock="tabulated" if problem.model == "j2" else "true-anomaly")
+    return Solution(
+        problem=problem, status=status, cost=keep(cost),
+        duration=problem.duration + 0.0 * cost, trajectory=trajectory,
+        stats=dict(node_s=node_s, state_s=state_s,
+                   cost_true_anomaly=keep(problem.orbit.k2 * cost),
+                   costates_scaled=keep(lam), multipliers=keep(result.multipliers),
+                   constraint_residual=keep(result.constraint_residual),
+                   stationarity_residual=keep(result.stationarity_residual),
+                   iterations=result.iterations, history=keep(result.history)),
+        method="newton")

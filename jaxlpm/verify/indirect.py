@@ -23,11 +23,9 @@ import jax.numpy as jnp
 
 from .._validation import require_x64
 from ..dynamics import hcw_matrix
-from ..dynamics.propagation import solve_ode
+from ..dynamics.propagation import SHOOTING, solve_ode
 from ..problems.min_time import min_time_ocp, state_scale
 from ..status import Status
-
-RTOL = ATOL = 1e-13
 
 
 @jax.tree_util.register_dataclass
@@ -57,8 +55,7 @@ def _flow(params, x0, lam0, length):
                                 -A.T @ lam])
 
     ys, status = solve_ode(rhs, jnp.concatenate([x0, lam0]), 0.0, length,
-                           diffrax.SaveAt(t1=True), RTOL, ATOL, 100_000,
-                           adjoint=diffrax.ForwardMode())
+                           diffrax.SaveAt(t1=True), SHOOTING)
     return ys[-1], status
 
 

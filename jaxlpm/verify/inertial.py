@@ -25,13 +25,11 @@ import jax.numpy as jnp
 from .._validation import require_x64
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..dynamics.gravity import inertial_rhs
-from ..dynamics.propagation import solve_ode
+from ..dynamics.propagation import INDEPENDENT, solve_ode
 from ..status import Status
-from .propagate import ControlInterpolant
+from ..solution import ControlInterpolant
 
 LENGTH = 1.0e7            # m: the integrator's length scale
-RTOL = ATOL = 1e-13
-MAX_STEPS = 1_000_000
 
 
 def direction_interpolant(grid, directions, t_start, duration) -> ControlInterpolant:
@@ -62,8 +60,7 @@ def fly(state, mass, t0, t1, control: ControlInterpolant = None, thrust=0.0, mas
         return jnp.concatenate([rate, -jnp.atleast_1d(mass_rate * 1.0)]) / scale
 
     saveat = diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts)
-    ys, status = solve_ode(rhs, y0 / scale, t0, t1, saveat, RTOL, ATOL, MAX_STEPS,
-                           solver=diffrax.Tsit5())
+    ys, status = solve_ode(rhs, y0 / scale, t0, t1, saveat, INDEPENDENT)
     ys = ys * scale
     return (ys[-1] if ts is None else ys), status == Status.SUCCESS
 

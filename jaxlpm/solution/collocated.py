@@ -1,0 +1,266 @@
+"""Trajectories of collocated solutions: how a `Solution` on one grid (`Collocated`) or on a
+segmented mesh (`Segmented`) is evaluated at a time t (s since the start).
+
+`Collocated`: the grid's state polynomial over its support (`jaxlpm.collocation.Grid`) and the
+barycentric control interpolant over its collocation points, in the grid coordinate tau in
+[-1, 1]. How t maps to tau is the `clock`, the independent variable s the family was
+transcribed in (s = s0 + (sf - s0) (tau + 1) / 2):
+  "true-anomaly"  s is the Keplerian chief's true anomaly f(t) (Kepler's equation, exact);
+  "uniform"       s is affine in t (s = n t for the HCW families);
+  "tabulated"     s is the J2 chief's regularised anomaly; tau(t) inverts the interpolated
+                  state-row times t(tau) (monotone; Newton kept inside a bracket).
+The polynomial's coordinates are LVLH or, for Mei 2010's laws, Tschauner-Hempel states
+(converted to LVLH at f). A constant-thrust family sets `magnitude` > 0: the engine flies the
+interpolated direction at that magnitude (Duan & Dong 2011, §4).
+
+`Segmented`: K segments of one LGR grid (`SegmentedMesh`, breaks as fractions of the
+duration), each its own polynomial and interpolant, the time uniform within a segment; the
+control may jump at a break (a segment boundary belongs to the later segment).
+
+`flight_control()` gives the control as the function a propagator calls inside its right-hand
+side (`ControlInterpolant`): of the chief's anomaly integrated beside the state for the
+anomaly clocks, of time otherwise; padded to at least PAD_TO points so that one compiled
+propagator serves every grid size up to PAD_TO points (`padded_size`).
+"""
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from ..collocation import Grid, barycentric_interpolate
+from ..collocation.segments import SegmentedMesh
+from ..orbits import th_to_lvlh, true_anomaly_from_time
+
+CLOCKS = ("true-anomaly", "uniform", "tabulated")
+COORDINATES = ("lvlh", "tschauner-hempel")
+PAD_TO = 129          # the flight control's padded size: one compiled propagator up to lgl(129)
+_FAR = 10.0           # padded support points sit outside [-1, 1] with zero weight
+_INVERSION_STEPS = 60  # safeguarded Newton on t(tau): bisection alone halves 2^-60
+
+
+def _static(default):
+    return field(default=default, metadata=dict(static=True))
+
+
+def _unit(v, magnitude):
+    """v, or its direction at `magnitude` where magnitude > 0."""
+    norm = jnp.linalg.norm(v)
+    return jnp.where(magnitude > 0.0, magnitude * v / jnp.where(norm > 0.0, norm, 1.0), v)
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class ControlInterpolant:
+    """u(x) = barycentric interpolant of `values` on `tau` mapped to x in [x0, x1] (x the
+    time or the chief's anomaly, `variable`); with magnitude > 0 its direction at that
+    magnitude. Padded entries sit outside [-1, 1] with zero weight."""
+
+    tau: jax.Array
+    bary: jax.Array
+    values: jax.Array
+    x0: jax.Array
+    x1: jax.Array
+    magnitude: jax.Array = 0.0
+    variable: str = _static("time")
+
+    def __call__(self, x):
+        t = 2.0 * (x - self.x0) / (self.x1 - self.x0) - 1.0
+        return _unit(barycentric_interpolate(self.tau, self.bary, self.values, t),
+                     self.magnitude)
+
+
+def padded_size(n: int) -> int:
+    """PAD_TO, or the first of 2 PAD_TO - 1, 4 PAD_TO - 3, ... that holds n points: a few
+    compiled propagators serve every grid."""
+    size = PAD_TO
+    while size < n:
+        size = 2 * size - 1
+    return size
+
+
+def control_interpolant(grid: Grid, values, x0, x1, magnitude=0.0,
+                        variable="time") -> ControlInterpolant:
+    """`values` (n, 3) at the grid's collocation points as a `ControlInterpolant` over
+    [x0, x1], zero-padded to `padded_size(n)` points."""
+    pad = padded_size(grid.n) - grid.n
+    return ControlInterpolant(
+        tau=jnp.pad(jnp.asarray(grid.points), (0, pad), constant_values=_FAR),
+        bary=jnp.pad(jnp.asarray(grid.point_bary), (0, pad)),
+        values=jnp.pad(values, ((0, pad), (0, 0))), x0=x0, x1=x1,
+        magnitude=jnp.asarray(magnitude, values.dtype), variable=variable)
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class Collocated:
+    """A solution on one grid (module docstring).
+
+    grid           the `Grid` (static: scheme and number of points)
+    times          (n,) times of the collocation points (s)
+    dt_dtau        (n,) dt/dtau at the collocation points (s), for quadratures in time
+    node_controls  (n, 3) controls at `times` (m/s^2)
+    node_costates  (n, 6) costates at `times` (SI, see `Solution.costates`)
+    state_times    (n_rows,) times of the state rows (`jaxlpm.nlp.transcription.state_tau`)
+    node_states    (n_rows, 6) LVLH states at `state_times` (m, m/s)
+    polynomial     (n_rows, 6) the state rows in `coordinates` (TH: m and m/rad)
+    s0, sf         the independent variable at the start and the end (rad, or s)
+    orbit          the chief's `KeplerOrbit` (the true-anomaly clock and TH coordinates)
+    magnitude      > 0: the control's constant magnitude (m/s^2); 0: none
+    clock, coordinates  static (module docstring)
+    """
+
+    grid: Grid
+    times: jax.Array
+    dt_dtau: jax.Array
+    node_controls: jax.Array
+    node_costates: jax.Array
+    state_times: jax.Array
+    node_states: jax.Array
+    polynomial: jax.Array
+    s0: jax.Array
+    sf: jax.Array
+    orbit: Any = None
+    magnitude: jax.Array = 0.0
+    clock: str = _static("uniform")
+    coordinates: str = _static("lvlh")
+
+    def _support(self, rows):
+        """The state rows that carry the polynomial (LG's last row does not)."""
+        return rows[: self.grid.support.shape[0]]
+
+    def tau(self, t):
+        """Grid coordinate of time t (s) in [0, duration]."""
+        if self.clock == "uniform":
+            return 2.0 * t / self.state_times[-1] - 1.0
+        if self.clock == "true-anomaly":
+            f = true_anomaly_from_time(self.orbit, t)
+            return 2.0 * (f - self.s0) / (self.sf - self.s0) - 1.0
+        return self._invert_time(t)
+
+    def _invert_time(self, t):
+        """tau with t(tau) = t for the interpolated state-row times (monotone on [-1, 1]):
+        Newton's method kept inside a shrinking bracket (bisection where Newton leaves it)."""
+        support = self._support(self.state_times)
+
+        def step(_, s):
+            lo, hi, tau = s
+            r, slope = jax.jvp(lambda x: self.grid.interpolate_state(support, x), (tau,),
+                               (jnp.ones_like(tau),))
+            lo = jnp.where(r < t, tau, lo)
+            hi = jnp.where(r < t, hi, tau)
+            newton = tau - (r - t) / jnp.where(slope > 0.0, slope, 1.0)
+            ok = (slope > 0.0) & (newton > lo) & (newton < hi)
+            return lo, hi, jnp.where(ok, newton, 0.5 * (lo + hi))
+
+        one = jnp.ones_like(t)
+        tau0 = 2.0 * t / self.state_times[-1] - 1.0
+        return jax.lax.fori_loop(0, _INVERSION_STEPS, step, (-one, one, tau0))[2]
+
+    def state(self, t):
+        """LVLH state (m, m/s) at time t."""
+        tau = self.tau(t)
+        x = self.grid.interpolate_state(self._support(self.polynomial), tau)
+        if self.coordinates == "tschauner-hempel":
+            f = self.s0 + 0.5 * (self.sf - self.s0) * (tau + 1.0)
+            x = th_to_lvlh(x, f, self.orbit.e, self.orbit.k2)
+        return x
+
+    def control(self, t):
+        """Control (m/s^2) at time t."""
+        return _unit(self.grid.interpolate_control(self.node_controls, self.tau(t)),
+                     self.magnitude)
+
+    def costate(self, t):
+        """Costate estimate at time t, interpolated over the collocation points."""
+        return self.grid.interpolate_control(self.node_costates, self.tau(t))
+
+    def delta_v(self):
+        """int |u| dt (m/s) by the grid's quadrature."""
+        speed = jnp.linalg.norm(self.node_controls, axis=-1)
+        return jnp.sum(self.grid.weights * self.dt_dtau * speed, axis=-1)
+
+    def flight_control(self) -> ControlInterpolant:
+        """The control as a propagator calls it: of the chief's anomaly for the anomaly
+        clocks, of time for the uniform one."""
+        if self.clock == "uniform":
+            return control_interpolant(self.grid, self.node_controls, 0.0 * self.s0,
+                                       self.state_times[-1], self.magnitude, "time")
+        return control_interpolant(self.grid, self.node_controls, self.s0, self.sf,
+                                   self.magnitude, "anomaly")
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class SegmentedControl:
+    """u(t) on a segmented mesh: the segment holding t (breaks in s), then its barycentric
+    interpolant over the LGR points."""
+
+    grid: Grid
+    breaks: jax.Array
+    values: jax.Array
+    variable: str = _static("time")
+
+    def __call__(self, t):
+        k = jnp.clip(jnp.searchsorted(self.breaks, t, side="right") - 1, 0,
+                     self.breaks.shape[-1] - 2)
+        tau = 2.0 * (t - self.breaks[k]) / (self.breaks[k + 1] - self.breaks[k]) - 1.0
+        return self.grid.interpolate_control(jnp.take(self.values, k, axis=0), tau)
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class Segmented:
+    """A solution on a `SegmentedMesh` (module docstring): K segments of lgr(n).
+
+    mesh           the mesh, breaks as fractions of the duration
+    duration       the transfer time (s)
+    times          (K, n) times of the collocation points (s)
+    node_controls  (K, n, 3) controls (m/s^2); node_costates (K, n, 6) costates (SI)
+    state_times    (K, n + 1) times of each segment's state rows (its points and end break)
+    node_states    (K, n + 1, 6) LVLH states (m, m/s)
+    """
+
+    mesh: SegmentedMesh
+    duration: jax.Array
+    times: jax.Array
+    node_controls: jax.Array
+    node_costates: jax.Array
+    state_times: jax.Array
+    node_states: jax.Array
+
+    @property
+    def grid(self):
+        return self.mesh
+
+    def _locate(self, t):
+        b = self.mesh.breaks
+        frac = t / self.duration
+        k = jnp.clip(jnp.searchsorted(b, frac, side="right") - 1, 0, b.shape[-1] - 2)
+        return k, 2.0 * (frac - b[k]) / (b[k + 1] - b[k]) - 1.0
+
+    def _interpolate(self, values, t, state=False):
+        k, tau = self._locate(t)
+        g = self.mesh.grid
+        rows = jnp.take(values, k, axis=0)
+        return g.interpolate_state(rows, tau) if state else g.interpolate_control(rows, tau)
+
+    def state(self, t):
+        return self._interpolate(self.node_states, t, state=True)
+
+    def control(self, t):
+        return self._interpolate(self.node_controls, t)
+
+    def costate(self, t):
+        return self._interpolate(self.node_costates, t)
+
+    def delta_v(self):
+        """int |u| dt (m/s) by each segment's quadrature."""
+        h = 0.5 * self.duration[..., None] * jnp.diff(self.mesh.breaks, axis=-1)
+        speed = jnp.linalg.norm(self.node_controls, axis=-1)
+        return jnp.sum(h[..., None] * self.mesh.grid.weights * speed, axis=(-2, -1))
+
+    def flight_control(self) -> SegmentedControl:
+        return SegmentedControl(self.mesh.grid, self.mesh.breaks * self.duration,
+                                self.node_controls)

@@ -1,0 +1,48 @@
+"""`solve(problem, grid=None, *, method=None, options=None, throw=True)`: the one entry point.
+
+The problem's type picks the family (`FAMILIES`); each family checks its input and runs its
+compiled solver; every family returns a `Solution`.
+
+| problem                 | methods (default first)                 | default grid          |
+|-------------------------|-----------------------------------------|-----------------------|
+| `EnergyOptimalTransfer` | "kkt", "stm" (linear model, LGL grids), | lgl(65)               |
+|                         | "newton" (any model and grid)           |                       |
+| `MinimumTimeTransfer`   | "augmented-lagrangian"                  | lg(32)                |
+| `FuelOptimalTransfer`   | "homotopy"                              | 24 LGR segments of 8  |
+
+Grids count their points: `lgl(65)` has 65 LGL points (Mei 2010's degree N = 64).
+"""
+
+import numpy as np
+
+from .._validation import is_concrete, require_x64
+from ..solution import Solution, SolveError
+from ..status import Status
+from . import energy_optimal, fuel_optimal, min_time
+
+FAMILIES = {f.problem: f for f in (energy_optimal.FAMILY, min_time.FAMILY, fuel_optimal.FAMILY)}
+
+
+def solve(problem, grid=None, *, method=None, options=None, throw=True) -> Solution:
+    """Solve a transfer problem of any family; returns a `Solution` (SI; module table).
+
+    grid: a `Grid` (lgl(n), lg(n), lgr(n): n points) or, for fuel-optimal transfers, a
+    `SegmentedMesh` (breaks as fractions of the duration); None: the family's default.
+    method: None for the family's default. options: the method's frozen options object
+    (`NewtonOptions`, `ALOptions`, `HomotopyOptions`) or None for its defaults.
+    throw: an unbatched, concrete solve that does not end SUCCESS raises `SolveError` (its
+    `.status` and `.solution` say what happened); throw=False returns the solution with its
+    status. Under jit/vmap/grad nothing raises: the status is per member.
+    Concrete bad input raises ValueError; traced bad input gives status INVALID_INPUT.
+    """
+    require_x64()
+    family = FAMILIES.get(type(problem))
+    if family is None:
+        names = ", ".join(sorted(p.__name__ for p in FAMILIES))
+        raise ValueError(f"solve takes a problem of one of the families {names}, got "
+                         f"{type(problem).__name__}")
+    solution = family.solve(problem, grid, method, options)
+    if (throw and is_concrete(solution.status) and np.ndim(solution.status) == 0
+            and int(solution.status) != Status.SUCCESS):
+        raise SolveError(solution)
+    return solution

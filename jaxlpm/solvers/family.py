@@ -1,0 +1,49 @@
+"""What `jaxlpm.solve` needs to know of a problem family: its methods, their options, its
+default grid, and the compiled solver that turns (problem, grid, method, options) into a
+`Solution`."""
+
+from dataclasses import dataclass
+from typing import Callable
+
+
+@dataclass(frozen=True)
+class FamilySolver:
+    """A problem family as `solve` dispatches it.
+
+    problem       the problem class (its `check()` validates it)
+    methods       {method name: options class, or None for a method without options}; the
+                  first is the default unless `default_method` says otherwise
+    run           (problem, grid, method, options) -> `Solution`; jit-compiled inside
+    default_grid  problem -> the grid `solve(problem)` uses
+    check_grid    (grid, method) -> None, raising ValueError for a grid the method cannot use
+    default_method  optional (problem, grid) -> method name
+    """
+
+    problem: type
+    methods: dict
+    run: Callable
+    default_grid: Callable
+    check_grid: Callable
+    default_method: Callable | None = None
+
+    def solve(self, problem, grid, method, options):
+        if grid is None:
+            grid = self.default_grid(problem)
+        if method is None:
+            method = (self.default_method(problem, grid) if self.default_method is not None
+                      else next(iter(self.methods)))
+        if method not in self.methods:
+            raise ValueError(f"method must be one of {tuple(self.methods)} for a "
+                             f"{self.problem.__name__}, got {method!r}")
+        kind = self.methods[method]
+        if kind is None and options is not None:
+            raise ValueError(f"method {method!r} takes no options, got "
+                             f"{type(options).__name__}")
+        if kind is not None:
+            options = kind() if options is None else options
+            if not isinstance(options, kind):
+                raise ValueError(f"options for method {method!r} must be a {kind.__name__}, "
+                                 f"got {type(options).__name__}")
+        problem.check()
+        self.check_grid(grid, method)
+        return self.run(problem, grid, method, options)
