@@ -77,6 +77,12 @@ def collocation_s(ocp: OptimalControlProblem, grid, sf=None):
     return ocp.s0 + 0.5 * (sf - ocp.s0) * (grid.points + 1.0)
 
 
+def state_s(ocp: OptimalControlProblem, grid, sf=None):
+    """Independent variable at the state rows (`state_tau`)."""
+    sf = ocp.sf if sf is None else sf
+    return ocp.s0 + 0.5 * (sf - ocp.s0) * (state_tau(grid) + 1.0)
+
+
 def _pointwise(fun, ocp, grid, X, U, sf):
     """fun(s_i, x_i, u_i, data_i, params) at every collocation point."""
     s = collocation_s(ocp, grid, sf)

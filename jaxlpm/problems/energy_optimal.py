@@ -49,8 +49,10 @@ from ..dynamics import (lvlh_frame_motion, relative_lvlh_acceleration,
 from ..dynamics.chief import (anomaly_rate, j2_chief, j2_final_anomaly, kepler_chief,
                               kepler_final_anomaly)
 from ..nlp.ocp import OptimalControlProblem
-from ..nlp.transcription import collocated_rows, state_tau
+from ..nlp.transcription import (collocated_rows, collocation_s, costates, objective,
+                                 state_s, state_tau, unpack)
 from ..orbits import KeplerOrbit, lvlh_to_th, th_to_lvlh
+from ..solution import Collocated, Solution
 from .scaling import length_scale
 
 MODELS = ("linear", "two-body", "j2")
@@ -250,3 +252,43 @@ def transfer_ocp(problem: EnergyOptimalTransfer, grid):
         n_x=6, n_u=3, dynamics=dynamics, running_cost=cost, boundary=_fixed_ends,
         s0=o.f0 + 0.0 * s_f, sf=s_f, params=params, node_data=data)
     return ocp, chief, ok_f & ok_c
+
+
+def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status, valid):
+    """The `Solution` (SI, LVLH) of the transcribed transfer solved to `result` (an
+    `NLPResult` of `transfer_ocp(problem, grid)`, whose chief samples are `chief`): states
+    and controls unscaled, the cost 1/2 int |u|^2 dt, costates dJ/dx = cost_scale
+    (dx~/dx)^T dJ~/dx~ (x~ = `model_state`(x)), zeros where `valid` is False.
+
+    stats: node_s, state_s (anomalies of the collocation points and state rows, rad),
+    cost_true_anomaly (k^2 cost, m^2/s^4), costates_scaled (dJ~/dx~), multipliers,
+    constraint_residual, stationarity_residual (scaled units), iterations, history."""
+    def keep(x):
+        return jnp.where(valid, x, jnp.zeros_like(x))
+
+    X, U, _ = unpack(result.z, ocp, grid)
+    rows_s = state_s(ocp, grid)
+    node_s = collocation_s(ocp, grid)
+    states = keep(jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, rows_s))
+    cost = cost_scale(problem) * objective(result.z, ocp, grid)
+    lam = costates(result.z, result.multipliers, ocp, grid)
+    node_costates = cost_scale(problem) * jax.vmap(
+        lambda p, s: jax.vjp(lambda x: model_state(problem, x, s), jnp.zeros(6))[1](p)[0])(
+            lam, node_s)
+    rows = collocated_rows(grid)
+    trajectory = Collocated(
+        grid=grid, times=chief.t[rows],
+        dt_dtau=0.5 * (ocp.sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[rows]),
+        node_controls=keep(U * control_scale(problem)), node_costates=keep(node_costates),
+        state_times=chief.t, node_states=states, polynomial=states, s0=ocp.s0, sf=ocp.sf,
+        orbit=problem.orbit, clock="tabulated" if problem.model == "j2" else "true-anomaly")
+    return Solution(
+        problem=problem, status=status, cost=keep(cost),
+        duration=problem.duration + 0.0 * cost, trajectory=trajectory,
+        stats=dict(node_s=node_s, state_s=rows_s,
+                   cost_true_anomaly=keep(problem.orbit.k2 * cost),
+                   costates_scaled=keep(lam), multipliers=keep(result.multipliers),
+                   constraint_residual=keep(result.constraint_residual),
+                   stationarity_residual=keep(result.stationarity_residual),
+                   iterations=result.iterations, history=keep(result.history)),
+        method="newton")

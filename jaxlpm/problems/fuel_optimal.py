@@ -33,7 +33,12 @@ from .._validation import Checked, Rule, check_shape, coerce_sequences
 from ..constants import G0
 from ..dynamics import hcw_matrix
 from ..linalg import dense_solve
+from ..collocation.segments import SegmentedMesh
+from ..nlp.homotopy import controls, primers
 from ..orbits import KeplerOrbit
+from ..solution import Segmented, Solution
+from ..status import Status
+from .scaling import length_scale, state_scale
 
 
 @jax.tree_util.register_dataclass
@@ -186,3 +191,94 @@ def condensed_lgr(A, B, mesh) -> CondensedLGR:
 
     Phi, E = jax.lax.scan(back, jnp.eye(A.shape[0]), (P_end, G_end), reverse=True)
     return CondensedLGR(P=P, G=G, Phi=Phi, E=E)
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class FuelNLP:
+    """The transcribed problem handed to `jaxlpm.nlp.homotopy.energy_to_fuel`: minimise
+    sum_i c_i l_eps(|v_i|) subject to sum_i E_i v_i = d, |v_i| <= 1 (v = u / u_max at the
+    collocation points), with what maps its solution back to SI.
+
+    E (K n, 6, 3), c (K n,), d (6,); cond: the `CondensedLGR` of the mesh in s = n t;
+    mesh_s: the mesh with breaks in s; x0, xf: scaled boundary states; umax: u_max in L n^2.
+    """
+
+    E: jax.Array
+    c: jax.Array
+    d: jax.Array
+    cond: CondensedLGR
+    mesh_s: object
+    x0: jax.Array
+    xf: jax.Array
+    umax: jax.Array
+
+
+def to_nlp(problem: FuelOptimalTransfer, mesh) -> FuelNLP:
+    """The problem on `mesh` (breaks as fractions of the duration) as a `FuelNLP`: HCW in
+    s = n t, lengths in L, the states eliminated by the condensed LGR transcription."""
+    n = problem.orbit.mean_motion
+    scale = state_scale(problem)
+    umax = problem.max_acceleration / (length_scale(problem) * n**2)
+    mesh_s = SegmentedMesh(breaks=mesh.breaks * n * problem.duration, grid=mesh.grid)
+    cond = condensed_lgr(*hcw_input_matrices(), mesh_s)
+    x0, xf = problem.x0 / scale, problem.xf / scale
+    K, npts = mesh_s.n_segments, mesh_s.grid.n
+    return FuelNLP(E=umax * cond.E.reshape(K * npts, 6, 3), c=umax * mesh_s.weights.reshape(-1),
+                   d=xf - cond.Phi @ x0, cond=cond, mesh_s=mesh_s, x0=x0, xf=xf, umax=umax)
+
+
+def to_solution(problem: FuelOptimalTransfer, mesh, nlp: FuelNLP, res, valid):
+    """The `Solution` (SI, LVLH; `Segmented` on `mesh`) of the homotopy's result `res`: the
+    eps-smoothed optimum's controls and states, cost = delta-v int |u| dt (m/s), costates
+    dJ/dx(s) = L n exp(A (s_f - s))^T nu / scale (the final-state multipliers nu: the exact
+    adjoint of the condensed problem, module docstring), zeros where `valid` is False.
+
+    stats: node_throttle |u| / u_max, node_primers (the primer at the points), fuel (kg),
+    the eps = 1 energy-like solution on the same mesh (energy_node_controls m/s^2,
+    energy_dv m/s, energy_fuel kg, energy_cost 1/2 int |u|^2 dt m^2/s^3), eps,
+    multipliers nu and energy_multipliers (solver units), terminal_error and
+    energy_terminal_error [m, m/s] of the collocated final state, homotopy_steps,
+    failed_steps, newton_iterations."""
+    def keep(x):
+        return jnp.where(valid, x, jnp.zeros_like(x))
+
+    n, L = problem.orbit.mean_motion, length_scale(problem)
+    scale = state_scale(problem)
+    m, E, c = nlp.mesh_s, nlp.E, nlp.c
+    K, npts = m.n_segments, m.grid.n
+
+    def outputs(nu, eps):
+        v = controls(nu, E, c, eps)
+        U = (nlp.umax * v).reshape(K, npts, 3)
+        X = nlp.cond.states(nlp.x0, U)
+        miss = (X[-1, -1] - nlp.xf) * scale
+        err = jnp.stack([jnp.linalg.norm(miss[:3]), jnp.linalg.norm(miss[3:])])
+        return v, U, X, jnp.sum(c * jnp.linalg.norm(v, axis=1)) * L * n, err
+
+    v, U, X, dv, err = outputs(res.nu, res.eps)
+    ve, Ue, _, dve, erre = outputs(res.nu_energy, jnp.asarray(1.0, nlp.d.dtype))
+    a_si = L * n**2
+    energy_cost = 0.5 * jnp.sum(c * jnp.sum((nlp.umax * ve) ** 2, axis=1) / nlp.umax) \
+        * a_si**2 / n
+    sf = m.breaks[-1]
+    lam = jax.vmap(lambda s: hcw_flow(sf - s).T @ res.nu)(m.points.reshape(-1))
+    duration = problem.duration + 0.0 * dv
+    trajectory = Segmented(
+        mesh=mesh, duration=duration, times=keep(m.points / n), node_controls=keep(U * a_si),
+        node_costates=keep((L * n * lam / scale).reshape(K, npts, 6)),
+        state_times=keep(m.state_points / n), node_states=keep(X * scale))
+    return Solution(
+        problem=problem, status=jnp.where(valid, res.status, Status.INVALID_INPUT).astype(
+            jnp.int32),
+        cost=keep(dv), duration=duration, trajectory=trajectory,
+        stats=dict(node_throttle=keep(jnp.linalg.norm(v, axis=1).reshape(K, npts)),
+                   node_primers=keep(primers(res.nu, E, c).reshape(K, npts, 3)),
+                   fuel=keep(rocket_fuel(dv, problem)),
+                   energy_node_controls=keep(Ue * a_si), energy_dv=keep(dve),
+                   energy_fuel=keep(rocket_fuel(dve, problem)), energy_cost=keep(energy_cost),
+                   eps=res.eps, multipliers=keep(res.nu), energy_multipliers=keep(res.nu_energy),
+                   terminal_error=keep(err), energy_terminal_error=keep(erre),
+                   homotopy_steps=res.steps, failed_steps=res.failed_steps,
+                   newton_iterations=res.newton_iterations),
+        method="homotopy")

@@ -38,6 +38,8 @@ from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
 from .scaling import length_scale, state_scale
 from ..nlp.ocp import OptimalControlProblem
+from ..nlp.transcription import collocation_s, costates, state_s, unpack
+from ..solution import Collocated, Solution
 
 
 @jax.tree_util.register_dataclass
@@ -166,3 +168,44 @@ def duration_lower_bound(problem: MinimumTimeTransfer):
         return jnp.stack([2.0 * n * x[0] + x[4], jnp.hypot(n * x[2], x[5])])
 
     return jnp.linalg.norm(invariants(problem.xf) - invariants(problem.x0)) / problem.acceleration
+
+
+def to_solution(problem: MinimumTimeTransfer, ocp, grid, result, status, valid, t_lb):
+    """The `Solution` (SI, LVLH) of the transcribed problem solved to `result` (an `ALResult`
+    of `min_time_ocp`): duration t_f = (s_f - s0) / n (the cost), states and the thrust
+    acceleration (T/m) u_hat unscaled, costates dJ/dx = (dJ~/dx~) / (n scale) (J = t_f,
+    x~ = x / scale), zeros where `valid` is False.
+
+    stats: node_s, state_s (s = s0 + n t at the collocation points and state rows),
+    node_directions (u_hat), costates_scaled, multipliers, path_multipliers,
+    constraint_residual, path_residual, stationarity_residual, complementarity (scaled
+    units), outer_iterations, inner_iterations, history, duration_lower_bound (t_lb, s)."""
+    def keep(x):
+        return jnp.where(valid, x, jnp.zeros_like(x))
+
+    n = problem.orbit.mean_motion
+    X, U, sf = unpack(result.z, ocp, grid)
+    rows_s, node_s = state_s(ocp, grid, sf), collocation_s(ocp, grid, sf)
+    duration = keep((sf - ocp.s0) / n)
+    scale = state_scale(problem)
+    states = keep(X * scale)
+    lam = costates(result.z, result.multipliers, ocp, grid)
+    trajectory = Collocated(
+        grid=grid, times=keep((node_s - ocp.s0) / n), dt_dtau=0.5 * duration + 0.0 * node_s,
+        node_controls=keep(problem.acceleration * U), node_costates=keep(lam / (n * scale)),
+        state_times=keep((rows_s - ocp.s0) / n), node_states=states, polynomial=states,
+        s0=ocp.s0, sf=sf, magnitude=problem.acceleration, clock="uniform")
+    return Solution(
+        problem=problem, status=status, cost=duration, duration=duration,
+        trajectory=trajectory,
+        stats=dict(node_s=node_s, state_s=rows_s, node_directions=keep(U),
+                   costates_scaled=keep(lam), multipliers=keep(result.multipliers),
+                   path_multipliers=result.path_multipliers,
+                   constraint_residual=result.constraint_residual,
+                   path_residual=result.path_residual,
+                   stationarity_residual=result.stationarity_residual,
+                   complementarity=result.complementarity,
+                   outer_iterations=result.outer_iterations,
+                   inner_iterations=result.inner_iterations, history=result.history,
+                   duration_lower_bound=t_lb),
+        method="augmented-lagrangian")

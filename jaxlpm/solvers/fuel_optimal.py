@@ -28,12 +28,11 @@ import numpy as np
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
 from ..collocation.segments import SegmentedMesh, aligned_breaks, segmented_lgr, uniform_breaks
-from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, condensed_lgr,
-                                     hcw_flow, hcw_input_matrices, rocket_fuel)
+from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, hcw_flow,
+                                     hcw_input_matrices, rocket_fuel, to_nlp, to_solution)
 from ..problems.scaling import length_scale, state_scale
-from ..status import Status
-from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel, primers
-from ..solution import Segmented, Solution
+from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel
+from ..solution import Solution
 from .family import FamilySolver
 
 MIN_POINTS = 3
@@ -58,62 +57,9 @@ def switching_function(sol, t):
 def _fuel_optimal_transfer(problem, mesh, options):
     valid = problem.validity()
     problem = problem.sanitized(valid)
-    o = problem.orbit
-    n = o.mean_motion
-    scale = state_scale(problem)
-    umax = problem.max_acceleration / (length_scale(problem) * n**2)
-    sf = n * problem.duration
-    # the mesh is given on [0, 1] of the transfer (fractions of t_f): s = s_f * fraction
-    m = SegmentedMesh(breaks=mesh.breaks * sf, grid=mesh.grid)
-    A, B = hcw_input_matrices()
-    cond = condensed_lgr(A, B, m)
-    K, npts = m.n_segments, m.grid.n
-    x0, xf = problem.x0 / scale, problem.xf / scale
-    d = xf - cond.Phi @ x0
-    E = umax * cond.E.reshape(K * npts, 6, 3)
-    c = umax * m.weights.reshape(-1)
-    res = energy_to_fuel(E, c, d, options=options)
-
-    def outputs(nu, eps):
-        v = controls(nu, E, c, eps)
-        U = (umax * v).reshape(K, npts, 3)
-        X = cond.states(x0, U)
-        dv_nd = jnp.sum(c * jnp.linalg.norm(v, axis=1))
-        miss = (X[-1, -1] - xf) * scale
-        err = jnp.stack([jnp.linalg.norm(miss[:3]), jnp.linalg.norm(miss[3:])])
-        return v, U, X, dv_nd * length_scale(problem) * n, err
-
-    v, U, X, dv, err = outputs(res.nu, res.eps)
-    ve, Ue, _, dve, erre = outputs(res.nu_energy, jnp.asarray(1.0, d.dtype))
-    a_si = length_scale(problem) * n**2
-    energy_cost = 0.5 * jnp.sum(c * jnp.sum((umax * ve) ** 2, axis=1) / umax) * a_si**2 / n
-
-    def keep(x):
-        return jnp.where(valid, x, jnp.zeros_like(x))
-
-    # costates of the transcribed problem: dJ~/dx~(s) = exp(A (s_f - s))^T nu (the final-state
-    # multipliers; module docstring); J = dv = L n J~ and x~ = x / scale in SI
-    lam = jax.vmap(lambda s: hcw_flow(sf - s).T @ res.nu)(m.points.reshape(-1))
-    node_costates = (length_scale(problem) * n) * lam / scale
-    duration = problem.duration + 0.0 * dv
-    trajectory = Segmented(
-        mesh=mesh, duration=duration, times=keep(m.points / n), node_controls=keep(U * a_si),
-        node_costates=keep(node_costates.reshape(K, npts, 6)),
-        state_times=keep(m.state_points / n), node_states=keep(X * scale))
-    return Solution(
-        problem=problem, status=jnp.where(valid, res.status, Status.INVALID_INPUT).astype(
-            jnp.int32),
-        cost=keep(dv), duration=duration, trajectory=trajectory,
-        stats=dict(node_throttle=keep(jnp.linalg.norm(v, axis=1).reshape(K, npts)),
-                   node_primers=keep(primers(res.nu, E, c).reshape(K, npts, 3)),
-                   fuel=keep(rocket_fuel(dv, problem)),
-                   energy_node_controls=keep(Ue * a_si), energy_dv=keep(dve),
-                   energy_fuel=keep(rocket_fuel(dve, problem)), energy_cost=keep(energy_cost),
-                   eps=res.eps, multipliers=keep(res.nu), energy_multipliers=keep(res.nu_energy),
-                   terminal_error=keep(err), energy_terminal_error=keep(erre),
-                   homotopy_steps=res.steps, failed_steps=res.failed_steps,
-                   newton_iterations=res.newton_iterations),
-        method="homotopy")
+    nlp = to_nlp(problem, mesh)
+    return to_solution(problem, mesh, nlp, energy_to_fuel(nlp.E, nlp.c, nlp.d, options=options),
+                       valid)
 
 
 _compiled = jax.jit(_fuel_optimal_transfer, static_argnames="options")

@@ -37,15 +37,14 @@ from ..collocation import Grid, lg
 from ..linalg import cholesky_solve, small_spd_solve
 from ..problems.fuel_optimal import hcw_flow
 from ..problems.min_time import (MinimumTimeTransfer, duration_lower_bound, energy_ocp,
-                                 min_time_ocp, state_scale)
+                                 min_time_ocp, to_solution)
 from ..nlp.ocp import PathPenalty
-from ..nlp.transcription import (collocation_s, costates, equality, pack, state_tau,
-                                      unpack)
+from ..nlp.transcription import equality, pack, state_tau, unpack
 from ..status import Status
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
 from ..nlp.condensed import CondensedSecondOrder
 from ..nlp.newton import DenseKKT, newton_step
-from ..solution import Collocated, Solution
+from ..solution import Solution
 from .family import FamilySolver
 
 MIN_POINTS = {"LGL": 4, "LG": 3, "LGR": 3}
@@ -217,44 +216,15 @@ def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
     result = augmented_lagrangian(ocp.replace(sf=z0[-1]), grid, z0, lam0, options=options,
                                   linear_algebra=DenseKKT,
                                   penalty0=_direction_penalty(nu0, rho0, n_bounds=2))
-    X, U, sf = unpack(result.z, ocp, grid)
-    state_s = ocp.s0 + 0.5 * (sf - ocp.s0) * (state_tau(grid) + 1.0)
-    node_s = collocation_s(ocp, grid, sf)
     # infeasibility is shown by the lower bound, or by the AL's certificate with the duration
-    # held at t_max (`solve_min_time`)
+    # held at t_max (`run`)
     al_infeasible = result.status == Status.INFEASIBLE
     shown = (t_lb > problem.bounds[1]) | (al_infeasible
                                           & (result.path_multipliers.bounds[1] > 0.0))
     status = jnp.where(shown, Status.INFEASIBLE,
                        jnp.where(al_infeasible, Status.STALLED, result.status))
-
-    def keep(x):
-        return jnp.where(valid, x, jnp.zeros_like(x))
-
-    duration = keep((sf - ocp.s0) / n)
-    scale = state_scale(problem)
-    states = keep(X * scale)
-    lam = costates(result.z, result.multipliers, ocp, grid)
-    # J = t_f = (s_f - s0) / n and x~ = x / scale: dJ/dx = (dJ~/dx~) / (n scale)
-    trajectory = Collocated(
-        grid=grid, times=keep((node_s - ocp.s0) / n), dt_dtau=0.5 * duration + 0.0 * node_s,
-        node_controls=keep(problem.acceleration * U), node_costates=keep(lam / (n * scale)),
-        state_times=keep((state_s - ocp.s0) / n), node_states=states, polynomial=states,
-        s0=ocp.s0, sf=sf, magnitude=problem.acceleration, clock="uniform")
-    return Solution(
-        problem=problem, status=jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32),
-        cost=duration, duration=duration, trajectory=trajectory,
-        stats=dict(node_s=node_s, state_s=state_s, node_directions=keep(U),
-                   costates_scaled=keep(lam), multipliers=keep(result.multipliers),
-                   path_multipliers=result.path_multipliers,
-                   constraint_residual=result.constraint_residual,
-                   path_residual=result.path_residual,
-                   stationarity_residual=result.stationarity_residual,
-                   complementarity=result.complementarity,
-                   outer_iterations=result.outer_iterations,
-                   inner_iterations=result.inner_iterations, history=result.history,
-                   duration_lower_bound=t_lb),
-        method="augmented-lagrangian")
+    status = jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32)
+    return to_solution(problem, ocp, grid, result, status, valid, t_lb)
 
 
 _compiled = jax.jit(_min_time_transfer, static_argnames="options")

@@ -11,17 +11,15 @@ duration, boundary states, J2) come from the implicit function theorem at the KK
 import jax
 import jax.numpy as jnp
 
-from ..problems.energy_optimal import (control_scale, cost_scale, lvlh_state, model_state,
-                                 transfer_ocp)
-from ..nlp.transcription import (collocated_rows, collocation_s, costates, equality,
-                                      objective, pack, state_tau, unpack)
-from ..dynamics.chief import anomaly_rate
+from ..problems.energy_optimal import (control_scale, lvlh_state, model_state, to_solution,
+                                       transfer_ocp)
+from ..nlp.transcription import equality, pack, state_s, state_tau, unpack
 from ..linalg import sequential_when_batched
 from ..status import Status
 from .lq import kkt_law
 from ..nlp.condensed import CondensedSecondOrder
 from ..nlp.newton import DenseKKT, NewtonOptions, newton_kkt, newton_step
-from ..solution import Collocated, Solution
+from ..solution import Solution
 
 
 def _warm_start(problem, ocp, grid):
@@ -46,9 +44,9 @@ def _warm_start(problem, ocp, grid):
         # than round-off found no feasible point
         singular = ~(jnp.max(jnp.abs(equality(z_lin, ocp_lin, grid))) <= 1e-6)
         X_th, U, _ = unpack(z_lin, ocp_lin, grid)
-        X_lvlh = jax.vmap(lambda x, s: lvlh_state(linear, x, s))(X_th, _state_s(ocp_lin, grid))
+        X_lvlh = jax.vmap(lambda x, s: lvlh_state(linear, x, s))(X_th, state_s(ocp_lin, grid))
         U_si = U * control_scale(linear)
-    X = jax.vmap(lambda x, s: model_state(problem, x, s))(X_lvlh, _state_s(ocp, grid))
+    X = jax.vmap(lambda x, s: model_state(problem, x, s))(X_lvlh, state_s(ocp, grid))
     z0 = pack(X, U_si / control_scale(problem), ocp.sf, ocp)
     return jnp.where(singular, jnp.zeros_like(z0), z0), singular
 
@@ -63,10 +61,6 @@ def separation_homotopy(ocp, t):
     linear to first order in L / r (Tschauner-Hempel), so small t is the linear warm start's
     own problem and t = 1 the transfer itself."""
     return ocp.replace(params={**ocp.params, "length": t * ocp.params["length"]})
-
-
-def _state_s(ocp, grid):
-    return ocp.s0 + 0.5 * (ocp.sf - ocp.s0) * (state_tau(grid) + 1.0)
 
 
 LINEAR_ALGEBRA = ("auto", "condensed", "dense")
@@ -94,7 +88,6 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     valid = problem.validity()
     problem = problem.sanitized(valid)
     ocp, chief, ok = transfer_ocp(problem, grid)
-    state_s = _state_s(ocp, grid)
     if warm_start:       # an initial guess: not differentiated, member by member under vmap
         z0, linear_singular = _sequential_warm_start(*jax.lax.stop_gradient((problem, ocp)),
                                                      grid)
@@ -112,41 +105,10 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
                          "'j2') and every thrust axis; use 'dense' or 'auto'")
     la = CondensedSecondOrder if condensable and linear_algebra != "dense" else DenseKKT
     result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy, linear_algebra=la)
-    X, U, _ = unpack(result.z, ocp, grid)
-    states = jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, state_s)
     # a failed solve whose linearisation cannot reach the target with the thrust axes given
     # is reported as what it is: SINGULAR (uncontrollable), not a solver failure
     status = jnp.where(linear_singular & (result.status != Status.SUCCESS), Status.SINGULAR,
                        result.status)
     status = jnp.where(valid, jnp.where(ok, status, Status.NONFINITE),
                        Status.INVALID_INPUT).astype(jnp.int32)
-    cost = cost_scale(problem) * objective(result.z, ocp, grid)
-
-    def keep(x):
-        return jnp.where(valid, x, jnp.zeros_like(x))
-
-    rows = collocated_rows(grid)
-    node_s = collocation_s(ocp, grid)
-    # the solver's costates are dJ~/dx~ of its scaled state x~ = model_state(x); in SI
-    # dJ/dx = cost_scale (dx~/dx)^T dJ~/dx~
-    lam = costates(result.z, result.multipliers, ocp, grid)
-    node_costates = cost_scale(problem) * jax.vmap(
-        lambda p, s: jax.vjp(lambda x: model_state(problem, x, s), jnp.zeros(6))[1](p)[0])(
-            lam, node_s)
-    states = keep(states)
-    trajectory = Collocated(
-        grid=grid, times=chief.t[rows],
-        dt_dtau=0.5 * (ocp.sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[rows]),
-        node_controls=keep(U * control_scale(problem)), node_costates=keep(node_costates),
-        state_times=chief.t, node_states=states, polynomial=states, s0=ocp.s0, sf=ocp.sf,
-        orbit=problem.orbit, clock="tabulated" if problem.model == "j2" else "true-anomaly")
-    return Solution(
-        problem=problem, status=status, cost=keep(cost),
-        duration=problem.duration + 0.0 * cost, trajectory=trajectory,
-        stats=dict(node_s=node_s, state_s=state_s,
-                   cost_true_anomaly=keep(problem.orbit.k2 * cost),
-                   costates_scaled=keep(lam), multipliers=keep(result.multipliers),
-                   constraint_residual=keep(result.constraint_residual),
-                   stationarity_residual=keep(result.stationarity_residual),
-                   iterations=result.iterations, history=keep(result.history)),
-        method="newton")
+    return to_solution(problem, ocp, grid, chief, result, status, valid)

@@ -1,0 +1,61 @@
+"""The research scripts in examples/ run at small sizes and say what they should (issue 18's
+acceptance: each at most ~40 lines, against the public API only)."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import jaxlpm as lpm
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def load(name):
+    spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("name", sorted(p.stem for p in EXAMPLES.glob("*.py")))
+def test_examples_are_short_and_use_the_public_api(name):
+    lines = [ln for ln in (EXAMPLES / f"{name}.py").read_text().splitlines() if ln.strip()]
+    assert len(lines) <= 45, f"{name}: {len(lines)} non-blank lines"
+    assert "jaxlpm." not in " ".join(ln for ln in lines if ln.startswith(("from", "import"))), \
+        "examples import only `jaxlpm as lpm`"
+
+
+def test_eccentric_rendezvous(capsys):
+    """33 points over 3 periods at e = 0.3 (not yet resolved: the flown misses are metres to
+    km; 65 points give millimetres, docs/newton.md): both plans converge, and on the J2 model
+    the J2 plan misses far less than the linear one (the linearisation, not the grid, is what
+    the linear plan lacks)."""
+    plans = load("eccentric_rendezvous").main(points=33)
+    assert all(bool(s.success) for s in plans.values())
+    misses = {k: float(lpm.verify.fly(s, model="j2").terminal_error[0])
+              for k, s in plans.items()}
+    assert misses["J2 plan"] < 0.1 * misses["linear plan"], misses
+    assert "miss on J2" in capsys.readouterr().out
+
+
+def test_sensitivity_study():
+    """4 x 4 cases on lgl(17): every case SUCCESS; the implicit gradient dJ/de of one case
+    matches central differences of the same vmapped study (h = 1e-6: truncation ~1e-12,
+    round-off ~1e-10 relative; 1e-5 asserted)."""
+    study = load("sensitivity_study")
+    e, rev, J, dJ_de, _, status = study.main(n=4, points=17)
+    assert np.all(np.asarray(status) == lpm.Status.SUCCESS)
+    k = 5
+    h = 1e-6
+    grid = lpm.lgl(17)
+
+    def cost(e_):
+        o = lpm.KeplerOrbit(a=6650e3 / (1.0 - e_), e=e_)
+        x0 = np.array([10e3, 10e3, 0.0, 4.0, -23.485, 0.0])
+        p = lpm.EnergyOptimalTransfer(o, x0, np.zeros(6), float(rev[k]) * o.period)
+        return float(lpm.solve(p, grid).cost)
+
+    fd = (cost(float(e[k]) + h) - cost(float(e[k]) - h)) / (2 * h)
+    assert float(dJ_de[k]) == pytest.approx(fd, rel=1e-5)
