@@ -79,8 +79,9 @@ class Checked:
     """Input checks written once, for a frozen dataclass of array leaves (a problem, an orbit).
 
     A class lists its checks once, in `rules()` (values: `Rule`s of in-graph flags) and
-    `static_rules()` (what is known at trace time: types, shapes, static fields; raises), and
-    names a harmless valid instance in `harmless()`. From them:
+    `SHAPES` ({field: shape}: what is known at trace time too; `static_rules()` checks them
+    and the static rules of nested `Checked` fields, and a class with more static fields
+    extends it), and names a harmless valid instance in `harmless()`. From them:
       validate()      concrete input: the static rules, then ValueError naming the first
                       `Rule` that fails, its value and what is allowed;
       validity()      traced input: the conjunction of the rules' flags (status INVALID_INPUT
@@ -93,8 +94,17 @@ class Checked:
     def rules(self) -> list:
         raise NotImplementedError
 
+    SHAPES: dict = {}
+
     def static_rules(self) -> None:
-        """Raise ValueError for what is wrong at trace time too (types, shapes)."""
+        """Raise ValueError for what is wrong at trace time too: the shapes and real types of
+        the fields in `SHAPES`, then the static rules of nested `Checked` fields."""
+        for name, shape in self.SHAPES.items():
+            check_shape(name, getattr(self, name), shape)
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, Checked):
+                value.static_rules()
 
     def harmless(self):
         raise NotImplementedError

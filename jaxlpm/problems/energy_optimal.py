@@ -42,7 +42,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import Checked, Rule, check_shape, coerce_sequences, is_concrete
+from .._validation import Checked, Rule, coerce_sequences, is_concrete
 from ..constants import J2_EARTH, R_EARTH
 from ..dynamics import (lvlh_frame_motion, relative_lvlh_acceleration,
                         tschauner_hempel_matrix)
@@ -82,6 +82,8 @@ class EnergyOptimalTransfer(Checked):
     model: str = field(default="linear", metadata=dict(static=True))
     j2: jax.Array = J2_EARTH
     r_eq: jax.Array = R_EARTH
+
+    SHAPES = {"x0": (6,), "xf": (6,), "duration": (), "j2": (), "r_eq": ()}
 
     def __post_init__(self):
         coerce_sequences(self)
@@ -123,17 +125,13 @@ class EnergyOptimalTransfer(Checked):
         return rules
 
     def static_rules(self) -> None:
-        """Model, thrust axes, the fields' types and shapes (x0, xf (6,); every other field a
-        scalar): known at trace time too."""
+        """Model and thrust axes, then the fields' shapes (`Checked.static_rules`)."""
         if self.model not in MODELS:
             raise ValueError(f"model must be one of {MODELS}, got {self.model!r}")
         axes = self.thrust_axes
         if len(axes) != 3 or not all(isinstance(a, (bool, np.bool_)) for a in axes):
             raise ValueError(f"thrust_axes must be three booleans (x, y, z), got {axes!r}")
-        for name, shape in (("x0", (6,)), ("xf", (6,)), ("duration", ()), ("j2", ()),
-                            ("r_eq", ())):
-            check_shape(name, getattr(self, name), shape)
-        self.orbit.static_rules()
+        super().static_rules()
 
     def harmless(self) -> "EnergyOptimalTransfer":
         """A valid transfer of the same model and thrust axes (1 m radial offset to the

@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 import jax
 import jax.numpy as jnp
 
-from .._validation import Checked, Rule, check_shape, coerce_sequences
+from .._validation import Checked, Rule, coerce_sequences
 from ..constants import G0
 from ..dynamics import hcw_matrix
 from ..linalg import dense_solve
@@ -63,6 +63,8 @@ class FuelOptimalTransfer(Checked):
     mass: jax.Array
     isp: jax.Array
 
+    SHAPES = {"x0": (6,), "xf": (6,), "duration": (), "thrust_max": (), "mass": (), "isp": ()}
+
     def __post_init__(self):
         coerce_sequences(self)
 
@@ -88,12 +90,6 @@ class FuelOptimalTransfer(Checked):
                 *positive,
                 Rule("xf", jnp.any(self.x0 != self.xf),
                      "different from x0 (the fuel-optimal transfer is no thrust at all)")]
-
-    def static_rules(self) -> None:
-        for name, shape in (("x0", (6,)), ("xf", (6,)), ("duration", ()), ("thrust_max", ()),
-                            ("mass", ()), ("isp", ())):
-            check_shape(name, getattr(self, name), shape)
-        self.orbit.static_rules()
 
     def harmless(self) -> "FuelOptimalTransfer":
         """A valid transfer (100 m along-track from rest in 5000 s, 1 N on 100 kg)."""

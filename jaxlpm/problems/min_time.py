@@ -33,7 +33,7 @@ import jax.numpy as jnp
 
 import numpy as np
 
-from .._validation import Checked, Rule, check_shape, coerce_sequences
+from .._validation import Checked, Rule, coerce_sequences
 from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
 from .scaling import length_scale, state_scale
@@ -61,6 +61,8 @@ class MinimumTimeTransfer(Checked):
     thrust: jax.Array
     mass: jax.Array
     duration_bounds: jax.Array = None
+
+    SHAPES = {"x0": (6,), "xf": (6,), "thrust": (), "mass": (), "duration_bounds": (2,)}
 
     def __post_init__(self):
         if self.duration_bounds is None:
@@ -96,12 +98,6 @@ class MinimumTimeTransfer(Checked):
                      & (lo < hi), "[t_min, t_max] with 0 <= t_min < t_max (s)"),
                 Rule("xf", jnp.any(self.x0 != self.xf),
                      "different from x0 (the minimum time of no transfer is 0)")]
-
-    def static_rules(self) -> None:
-        for name, shape in (("x0", (6,)), ("xf", (6,)), ("thrust", ()), ("mass", ()),
-                            ("duration_bounds", (2,))):
-            check_shape(name, getattr(self, name), shape)
-        self.orbit.static_rules()
 
     def harmless(self) -> "MinimumTimeTransfer":
         """A valid transfer (100 m along-track from rest, 1 N on 100 kg)."""
