@@ -19,8 +19,8 @@ from jaxlpm import EnergyOptimalTransfer, KeplerOrbit, Status, lgl, solve
 from jaxlpm.collocation.segments import aligned_breaks, segmented_lgr, uniform_breaks
 from jaxlpm.constants import R_EARTH
 from jaxlpm.linalg import dense_solve
-from jaxlpm.problems.fuel_optimal import (FuelOptimalTransfer, condensed_lgr, hcw_flow,
-                                          hcw_input_matrices)
+from jaxlpm.dynamics import hcw_flow
+from jaxlpm.problems.fuel_optimal import FuelOptimalTransfer, condensed_lgr, hcw_input_matrices
 from jaxlpm.solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,
                                          refine_fuel_optimal)
 from jaxlpm.nlp.homotopy import HomotopyOptions, pointwise_control, throttle

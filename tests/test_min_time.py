@@ -28,6 +28,7 @@ from jaxlpm.verify import min_time_shooting
 # after jaxlpm, which sets one OpenBLAS thread unless scipy has already loaded it (its pool
 # contends with XLA's: the dense KKT factorisations of these solves run ~10x slower)
 import scipy.integrate  # noqa: E402
+import scipy.linalg  # noqa: E402
 import scipy.optimize  # noqa: E402
 
 QUICK = {"xla_backend_optimization_level": 0}
@@ -424,3 +425,11 @@ def test_duan_frames_and_fly_around_conditions():
     np.testing.assert_allclose(xs[:-1, :3].mean(axis=0), 0.0, atol=1e-6)   # centred
     x0 = duan.paper_to_lvlh(duan.initial_state_paper())
     np.testing.assert_array_equal(x0, [2.0, 2.0, -2.0, 0.01, 0.01, -0.01])
+    # the 20-day coast of the paper's Fig. 4 (closed-form flow; a Pade matrix exponential of
+    # A t returned NaN there) against scipy's expm at its end, from a drifting state: both
+    # exact flows, so they agree to the rounding of ||A t|| ~ 2e3 (1e-6 m on km states)
+    drifting = xf + np.array([0.0, 0.0, 0.0, 0.01, 0.0, 0.0])
+    ts, xs = duan.coast(drifting, n, n_save=3)
+    ref = scipy.linalg.expm(np.asarray(hcw_matrix(n)) * ts[-1]) @ drifting
+    assert np.all(np.isfinite(xs))
+    np.testing.assert_allclose(xs[-1], ref, atol=1e-6)

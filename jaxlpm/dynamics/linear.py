@@ -21,6 +21,22 @@ def hcw_matrix(n):
     ])
 
 
+def hcw_flow(tau):
+    """exp(A tau) of the HCW matrix with n = 1 (`hcw_matrix(1.0)`: time tau = n t in rad,
+    velocities in length units per rad), in closed form (Clohessy & Wiltshire 1960; Vallado, Fundamentals of Astrodynamics, 4th ed., eq. 6-66), state [x, y, z, vx, vy,
+    vz]: no LAPACK call (the matrix exponential's Pade solve is one), exact for any tau."""
+    c, s = jnp.cos(tau), jnp.sin(tau)
+    z = 0.0 * tau
+    return jnp.array([
+        [4.0 - 3.0 * c, z, z, s, 2.0 * (1.0 - c), z],
+        [6.0 * (s - tau), z + 1.0, z, -2.0 * (1.0 - c), 4.0 * s - 3.0 * tau, z],
+        [z, z, c, z, z, s],
+        [3.0 * s, z, z, c, 2.0 * s, z],
+        [-6.0 * (1.0 - c), z, z, -2.0 * s, 4.0 * c - 3.0, z],
+        [z, z, -s, z, z, c],
+    ])
+
+
 def hcw_rhs(t, x, u, n):
     """HCW equations dx/dt (m/s, m/s^2)."""
     del t

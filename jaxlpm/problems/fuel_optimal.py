@@ -31,7 +31,7 @@ import jax.numpy as jnp
 
 from .._validation import Checked, Rule, coerce_sequences
 from ..constants import G0
-from ..dynamics import hcw_matrix
+from ..dynamics import hcw_flow, hcw_matrix
 from ..linalg import dense_solve
 from ..collocation.segments import SegmentedMesh
 from ..nlp.homotopy import controls, primers
@@ -115,22 +115,6 @@ def hcw_input_matrices():
     """(A, B) of x' = A x + B u in the solver's units (s = n t, accelerations in L n^2)."""
     B = jnp.concatenate([jnp.zeros((3, 3)), jnp.eye(3)])
     return hcw_matrix(1.0), B
-
-
-def hcw_flow(tau):
-    """exp(A tau) of `hcw_input_matrices`' A (s = n t), in closed form (Clohessy & Wiltshire
-    1960; Vallado, Fundamentals of Astrodynamics, 4th ed., eq. 6-66), state [x, y, z, vx, vy,
-    vz]: no LAPACK call (the matrix exponential's Pade solve is one), exact for any tau."""
-    c, s = jnp.cos(tau), jnp.sin(tau)
-    z = 0.0 * tau
-    return jnp.array([
-        [4.0 - 3.0 * c, z, z, s, 2.0 * (1.0 - c), z],
-        [6.0 * (s - tau), z + 1.0, z, -2.0 * (1.0 - c), 4.0 * s - 3.0 * tau, z],
-        [z, z, c, z, z, s],
-        [3.0 * s, z, z, c, 2.0 * s, z],
-        [-6.0 * (1.0 - c), z, z, -2.0 * s, 4.0 * c - 3.0, z],
-        [z, z, -s, z, z, c],
-    ])
 
 
 def _segment_maps(A, B, grid, h):

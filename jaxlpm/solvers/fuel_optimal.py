@@ -28,7 +28,8 @@ import numpy as np
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
 from ..collocation.segments import SegmentedMesh, aligned_breaks, segmented_lgr, uniform_breaks
-from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, hcw_flow,
+from ..dynamics import hcw_flow
+from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem,
                                      hcw_input_matrices, rocket_fuel, to_nlp, to_solution)
 from ..problems.scaling import length_scale, state_scale
 from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel

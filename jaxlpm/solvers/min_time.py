@@ -35,7 +35,7 @@ import jax.numpy as jnp
 
 from ..collocation import Grid, lg
 from ..linalg import cholesky_solve, small_spd_solve
-from ..problems.fuel_optimal import hcw_flow
+from ..dynamics import hcw_flow
 from ..problems.min_time import (MinimumTimeTransfer, duration_lower_bound, energy_ocp,
                                  min_time_ocp, to_solution)
 from ..nlp.ocp import PathPenalty
