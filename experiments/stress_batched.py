@@ -4,7 +4,7 @@ jaxlib 0.10's batched CPU LAPACK kernels split a batch over XLA's intra-op threa
 block until it is done (`jax::ParallelBatchMap`); two such calls at once deadlock a 2-thread
 pool (`jaxlpm.linalg.sequential_when_batched`). This script runs
 
-    jax.jit(jax.vmap(jax.value_and_grad(lambda e: solve(problem(e), grid, method).cost)))
+    jax.jit(jax.vmap(jax.value_and_grad(lambda e: solve(problem(e), grid, method=method).cost)))
 
 for the STM and KKT laws (linear model, lgl(--n-laws)) and the Newton transfer (models
 "linear" and "two-body", lgl(--n-newton)) over eccentricities e = linspace(0.05, E_MAX, B),
