@@ -1,8 +1,8 @@
 """Cost of mei2010's rendezvous over (e, duration), and its convergence with the grid (issue 8).
 
 One resumable sweep (`jaxlpm.batch.sweep`, the KKT or STM law on the linear model) of
-mei2010's transfer over e x revolutions x grid size (lgl(points)), the chief's perigee radius held (a = r_p / (1 - e),
-r_p = 9500 km x (1 - 0.3) = 6650 km, mei2010's chief), then two PNGs:
+mei2010's transfer over e x revolutions x grid size (lgl(points)), the chief's perigee radius
+held (a = r_p / (1 - e), r_p = 9500 km x (1 - 0.3) = 6650 km, mei2010's chief), then two PNGs:
   sweep_heatmap.png      log10 of the energy cost 1/2 int |u|^2 dt (m^2/s^3) over (e,
                          revolutions) on the largest grid; non-converged members drawn blank
   sweep_convergence.png  per grid size n (points): max and median over the members of

@@ -154,7 +154,8 @@ class _DegreeGone(argparse.Action):
 
     def __call__(self, parser, namespace, values, option_string=None):
         try:
-            hint = f" (--N {values} is --points {','.join(str(int(v) + 1) for v in values.split(','))})"
+            points = ",".join(str(int(v) + 1) for v in values.split(","))
+            hint = f" (--N {values} is --points {points})"
         except ValueError:
             hint = ""
         parser.error(f"--N (the polynomial degree N, grid lgl(N + 1)) is no longer accepted: "

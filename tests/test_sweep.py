@@ -345,9 +345,9 @@ print("process", jax.process_index(), "of", jax.process_count(), "devices", jax.
 def test_two_processes_two_devices_each(tmp_path):
     """One sweep over 2 processes x 2 CPU devices (jax.distributed, localhost): every chunk's
     blocks computed on the 4 devices, gathered, and written by process 0 alone. A synthetic
-    family with exact arithmetic (x^2 n + 1, n the point count), so the check is exact and the test pays for the
-    processes' start-up, not for compiling a solver (the 4-device test covers the solver's
-    numbers). 10 members in chunks of 4: the last chunk padded."""
+    family with exact arithmetic (x^2 n + 1, n the point count), so the check is exact and the
+    test pays for the processes' start-up, not for compiling a solver (the 4-device test covers
+    the solver's numbers). 10 members in chunks of 4: the last chunk padded."""
     import socket
 
     with socket.socket() as s:
