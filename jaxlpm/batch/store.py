@@ -171,5 +171,3 @@ class ChunkStore:
             else:
                 self.manifest[k] = v
         self._save()
-
-

@@ -82,7 +82,6 @@ def parameter_grid(**axes) -> dict:
     return {k: m.ravel() for k, m in zip(arrays, mesh)}
 
 
-
 # ------------------------------------------------------------------------------------------
 # the sweep
 
@@ -107,13 +106,14 @@ class SweepResult:
     def summary(self) -> dict:
         """Per point count (a string key, for JSON): members, converged, status_counts
         ({status name: members}) and not_converged (the non-SUCCESS member indices)."""
+        converged, failed = self.converged(), self.failed()
         out = {}
         for n, t in self.tables.items():
             codes, counts = np.unique(t["status"], return_counts=True)
-            out[str(n)] = dict(members=int(t["index"].size), converged=self.converged()[n],
+            out[str(n)] = dict(members=int(t["index"].size), converged=converged[n],
                                status_counts={_status_name(c): int(k)
                                               for c, k in zip(codes, counts)},
-                               not_converged=self.failed()[n].tolist())
+                               not_converged=failed[n].tolist())
         return out
 
     def statistics(self, columns=("cost", "delta_v"), percentiles=PERCENTILES) -> dict:
