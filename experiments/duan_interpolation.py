@@ -20,7 +20,9 @@ from jaxlpm.cli import _setup_jax
 
 _setup_jax()
 
-from jaxlpm import make_grid, min_time_transfer  # noqa: E402
+import jax  # noqa: E402
+
+from jaxlpm import make_grid, solve  # noqa: E402
 from jaxlpm.cases import duan  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402
 
@@ -43,11 +45,12 @@ def main():
     parser.add_argument("--K", type=int, default=100)
     args = parser.parse_args()
     prob = duan.problem()
-    sol = min_time_transfer(prob, make_grid("LG", args.K))
+    sol = solve(prob, make_grid("LG", args.K))
     tf = float(sol.duration)
-    t = np.asarray(sol.node_times)
-    U = np.asarray(sol.node_directions)
-    bary = lambda s: np.asarray(sol.controls_at_time(s))  # noqa: E731
+    t = np.asarray(sol.times)
+    U = np.asarray(sol.stats["node_directions"])
+    controls_at = jax.jit(sol.controls)       # barycentric, renormalised to T / m (m/s^2)
+    bary = lambda s: np.asarray(controls_at(s))  # noqa: E731
     controls = {
         "barycentric (reproduce)": bary,
         "cubic spline (paper)": CubicSpline(t, U, axis=0),

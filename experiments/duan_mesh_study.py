@@ -1,6 +1,7 @@
 """Mesh study of the duan minimum-time case: K = 40, 60, 100, 150 points on LG, LGR and LGL
-grids, each t_f against the grid-independent optimum from shooting on the necessary
-conditions, and each solution's direction (renormalised) flown through the CW equations.
+grids (lg(K), lgr(K), lgl(K)), each t_f against the grid-independent optimum from shooting on
+the necessary conditions, and each solution's direction (renormalised) flown through the CW
+equations (`jaxlpm.verify.fly`).
 
     python experiments/duan_mesh_study.py [--K 40,60,100,150] [--out results/duan_mesh.json]
 
@@ -19,10 +20,10 @@ _setup_jax()
 
 import jax  # noqa: E402
 
-from jaxlpm import make_grid, min_time_transfer  # noqa: E402
+from jaxlpm import make_grid, solve  # noqa: E402
 from jaxlpm.cases import duan  # noqa: E402
 from jaxlpm.status import Status  # noqa: E402
-from jaxlpm.verify import min_time_shooting, terminal_error  # noqa: E402
+from jaxlpm.verify import fly, min_time_shooting  # noqa: E402
 
 SCHEMES = ("LG", "LGR", "LGL")
 
@@ -42,18 +43,18 @@ def main():
             if (scheme, k) in done:
                 continue
             t = time.perf_counter()
-            sol = min_time_transfer(prob, make_grid(scheme, k))
+            sol = solve(prob, make_grid(scheme, k), throw=False)
             jax.block_until_ready(sol.duration)
-            _, xs, ok = duan._fly(sol, prob)
-            row = {"scheme": scheme, "K": k, "tf": float(sol.duration),
+            flight = fly(sol)                  # the CW flight of the renormalised direction
+            row = {"scheme": scheme, "K": k, "points": k, "tf": float(sol.duration),
                    "status": Status(int(sol.status)).name,
-                   "terminal_miss": [float(v) for v in terminal_error(xs, prob.xf)],
-                   "drift_rate": float(duan.drift_rate(xs[-1])),
-                   "outer_iterations": int(sol.outer_iterations),
-                   "inner_iterations": int(sol.inner_iterations),
+                   "terminal_miss": [float(v) for v in flight.terminal_error],
+                   "drift_rate": float(duan.drift_rate(flight.states[-1])),
+                   "outer_iterations": int(sol.stats["outer_iterations"]),
+                   "inner_iterations": int(sol.stats["inner_iterations"]),
                    "seconds_incl_compile": time.perf_counter() - t}
             if "tf_indirect" not in data and scheme == "LG" and row["status"] == "SUCCESS":
-                shot = min_time_shooting(prob, sol.costates[0], sol.duration)
+                shot = min_time_shooting(prob, sol.stats["costates_scaled"][0], sol.duration)
                 if int(shot.status) == Status.SUCCESS:
                     data["tf_indirect"] = float(shot.duration)
                     data["tf_indirect_residual"] = float(shot.residual)

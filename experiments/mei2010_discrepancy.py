@@ -11,7 +11,8 @@ Sections printed:
   1. an independent optimum: the time-domain controllability Gramian of the linearised elliptic
      LVLH model (jaxlpm.dynamics.elliptic_lvlh_matrix; chief true anomaly integrated beside it),
      scipy solve_ivp DOP853 at rtol 1e-12 (no YA STM, no true anomaly as variable, no collocation);
-  2. the library's two laws (jaxlpm.solvers.solve "stm" / "kkt") against it for N = 8..128, their
+  2. the library's two laws (jaxlpm.solve, method "stm" / "kkt") against it for N = 8..128 (the
+     paper's degree N: grids lgl(N + 1)), their
      nodal controls against the Gramian control u*(t) = B^T Psi(t)^T W^-1 d, and the terminal
      error of the interpolated control on the linear and nonlinear models (jaxlpm.verify);
   3. paper-literal numpy re-implementations (eq. 10 with the paper's printed YA matrices; eq. 16
@@ -53,9 +54,10 @@ from jaxlpm.collocation.legendre import legendre  # noqa: E402
 from jaxlpm.dynamics import elliptic_lvlh_matrix, yamanaka_ankersen_inplane  # noqa: E402
 from jaxlpm.orbits import KeplerOrbit  # noqa: E402
 from jaxlpm.problems import EnergyOptimalTransfer  # noqa: E402
+from jaxlpm.solution import control_interpolant  # noqa: E402
 from jaxlpm.solvers import solve  # noqa: E402
-from jaxlpm.verify.propagate import (control_interpolant, propagate_linear,  # noqa: E402
-                                     propagate_nonlinear, terminal_error)
+from jaxlpm.status import Status  # noqa: E402
+from jaxlpm.verify import propagate_linear, propagate_nonlinear, terminal_error  # noqa: E402
 
 T_START = time.time()
 D2R = np.pi / 180.0
@@ -134,11 +136,13 @@ def gramian_optimum(rtol):
 # Flying controls through jaxlpm.verify, many at once (one vmapped, compiled propagator)
 # ----------------------------------------------------------------------------------------------
 def interp_of(grid, node_f, u_nodes):
-    """ControlInterpolant for nodal controls u_nodes (n, 2 or 3) at node true anomalies node_f."""
+    """ControlInterpolant in the true anomaly for nodal controls u_nodes (n, 2 or 3) at the LGL
+    nodes' true anomalies node_f (the first and last are the ends), as a solution's
+    `trajectory.flight_control()`."""
     u = np.zeros((len(node_f), 3))
     u[:, :u_nodes.shape[1]] = u_nodes
-    return control_interpolant(SimpleNamespace(grid=grid, node_controls=jnp.asarray(u),
-                                               node_f=jnp.asarray(node_f)))
+    return control_interpolant(grid, jnp.asarray(u), jnp.asarray(node_f[0]),
+                               jnp.asarray(node_f[-1]), variable="anomaly")
 
 
 _fly_lin = jax.jit(jax.vmap(lambda c: propagate_linear(ORBIT, jnp.asarray(X0), TF, c, 3)[1:]))
@@ -148,9 +152,9 @@ _fly_nl = jax.jit(jax.vmap(lambda c: propagate_nonlinear(ORBIT, jnp.asarray(X0),
 def fly(interps, model="linear"):
     """Terminal [|dr| m, |dv| m/s] of each control flown from x0 for 3 periods."""
     batch = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *interps)
-    states, ok = (_fly_lin if model == "linear" else _fly_nl)(batch)
+    states, status = (_fly_lin if model == "linear" else _fly_nl)(batch)
     err = np.array(jax.vmap(lambda s: terminal_error(s, jnp.asarray(XF)))(states))
-    err[~np.asarray(ok)] = np.nan
+    err[np.asarray(status) != Status.SUCCESS] = np.nan
     return err
 
 
@@ -304,17 +308,17 @@ def main():
     sols = {}
     for N in Ns:
         for m in ("stm", "kkt"):
-            sols[(N, m)] = solve(PROB, lgl(N + 1), m)
-    errs = fly([control_interpolant(sols[k]) for k in sols])
+            sols[(N, m)] = solve(PROB, lgl(N + 1), method=m)
+    errs = fly([s.trajectory.flight_control() for s in sols.values()])
     print(f"{'N':>4} {'law':>4} {'J (m^2/s^4)':>20} {'J/J* - 1':>10} "
           f"{'max|u_i - u*(t_i)|/max|u*|':>27}"
           f" {'lin |dr| m':>11} {'lin |dv| m/s':>12} status")
     for (key, s), err in zip(sols.items(), errs):
-        us = G.u_star(np.asarray(s.node_times))
+        us = G.u_star(np.asarray(s.times))
         du = np.max(np.abs(np.asarray(s.node_controls) - us)) / np.max(np.abs(us))
-        print(f"{key[0]:>4} {key[1]:>4} {float(s.cost_true_anomaly):20.12e} "
-              f"{float(s.cost_true_anomaly) / J_STAR - 1:10.1e} {du:27.1e} {err[0]:11.3e} "
-              f"{err[1]:12.3e} {int(s.status)}")
+        J = float(s.stats["cost_true_anomaly"])
+        print(f"{key[0]:>4} {key[1]:>4} {J:20.12e} {J / J_STAR - 1:10.1e} {du:27.1e} "
+              f"{err[0]:11.3e} {err[1]:12.3e} {int(s.status)}")
     print(f"published J_SEQ = {J_SEQ_PUB:.2e}: J*/J_SEQ - 1 = {J_STAR / J_SEQ_PUB - 1:+.1e}; "
           f"published J_STM = {J_STM_PUB:.1e}: J*/J_STM = {J_STAR / J_STM_PUB:.4f}")
     s_stm, s_kkt = sols[(64, "stm")], sols[(64, "kkt")]
@@ -332,9 +336,9 @@ def main():
     print(f"printed in-plane STM (with 2c - e) vs library YA STM: max |diff| = {dphi:.1e}")
     r_stm, r_seq = stm_law_np(65), seq_law_np(65)
     print(f"eq. (10) numpy: J = {r_stm.J:.12e}  "
-          f"(library stm {float(s_stm.cost_true_anomaly):.12e})")
+          f"(library stm {float(s_stm.stats['cost_true_anomaly']):.12e})")
     print(f"eq. (16) dense KKT numpy: J = {r_seq.J:.12e}  (library kkt "
-          f"{float(s_kkt.cost_true_anomaly):.12e})")
+          f"{float(s_kkt.stats['cost_true_anomaly']):.12e})")
     x0th = to_th(X0, 0.0)
     drift = mei_phi(FT, 0.0, K2 * TF) @ x0th - x0th
     print(f"free drift over 3 periods, Phi(fT,f0) X0 - X0 (TH, m, m/rad) = {np.round(drift, 3)}"
@@ -395,7 +399,7 @@ def main():
     s = sols[(128, "kkt")]
     g = s.grid
     w, u = np.asarray(g.weights), np.asarray(s.node_controls)
-    f = np.asarray(s.node_f)
+    f = np.asarray(s.stats["node_f"])              # the nodes' true anomalies (rad)
     rho_n = 1 + E * np.cos(f)
     half = FT / 2
     u2 = np.sum(u**2, 1)
@@ -446,7 +450,7 @@ def main():
 
     # ---------------------------------------------------------------------------------- 5.
     hdr("5. Nonlinear two-body model (chief i = raan = 30 deg, argp = 10 deg), N = 64")
-    nl = fly([control_interpolant(s_stm), control_interpolant(s_kkt),
+    nl = fly([s_stm.trajectory.flight_control(), s_kkt.trajectory.flight_control(),
               interp_of(rows[1][1].grid, rows[1][1].f, rows[1][1].u),
               interp_of(rows[2][1].grid, rows[2][1].f, rows[2][1].u)], model="nonlinear")
     names = ("library STM law", "library KKT (SEQ) law", "(a) STM law, t mod P, t(fT)->0",

@@ -3,12 +3,12 @@
 Issue 3's acceptance item: from the linear law's warm start, at least 99.9 % of 1000 randomly
 dispersed problems converge, and every other one reports a status (never a NaN without one).
 
-Problems: `jaxlpm.batch.mei2010_dispersion` (chief perigee altitude 600 km, e ~ U[0, 0.7],
+Problems: `jaxlpm.cases.mei2010.dispersion` (chief perigee altitude 600 km, e ~ U[0, 0.7],
 1-5 revolutions, f0 and argp uniform, i = raan = 30 deg; chaser LVLH position uniform in a 50 km
 cube, velocity within +-10 m/s per axis; rendezvous at the origin at rest). Grid: lgl(65)
-(mei2010's N = 64; --points to change). Solver: `jaxlpm.solvers.newton_transfer` with its
-default options (--max-iterations to change the limit), which warm-starts from the linear
-model's KKT solution.
+(mei2010's N = 64; --points to change). Solver: `jaxlpm.solve(problem, grid, method="newton",
+options=NewtonOptions(...))` with the default options (--max-iterations to change the limit),
+which warm-starts from the linear model's KKT solution.
 
 The problems are solved in chunks of --chunk by ONE compiled function: jax.jit(jax.vmap(solve))
 by default, or, with --vmap-width w < --chunk, jax.lax.map over vmapped groups of w inside the
@@ -28,8 +28,10 @@ compile separate, the non-converged problems with their parameters, failure rate
 revolutions, |v0| and the warm start's KKT residual), printed and written to OUT/summary.json;
 and a truth check: --verify converged problems (random, fixed seed; all of them if --verify
 >= n) flown through `jaxlpm.verify.propagate_nonlinear` (two-body, plus J2 for model "j2";
-Dopri8, rtol = atol = 1e-12) with the barycentric interpolant of the nodal control: terminal
-miss (m, m/s) against the target, overall and binned by revolutions and e.
+Dopri8, rtol = atol = 1e-12) with the barycentric interpolant of the stored nodal control in
+the chief's anomaly (`jaxlpm.solution.control_interpolant`, what the solution's
+`trajectory.flight_control()` gives): terminal miss (m, m/s) against the target, overall and
+binned by revolutions and e.
 
 Run from the repository root; on 2 CPU cores about 8 min for 1000 problems on lgl(65) with
 --vmap-width 1 (several times that in lockstep: a chunk with one failure runs 40 iterations
@@ -48,8 +50,9 @@ import sys
 import time
 from pathlib import Path
 
-import jaxlpm  # noqa: F401  (first: it sets XLA's CPU flags before JAX starts its backend)
-import jax
+# jaxlpm first: it sets XLA's CPU flags before JAX starts its backend
+from jaxlpm import NewtonOptions, lgl, solve
+import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
@@ -57,17 +60,15 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from jaxlpm.batch import dispersion_parameters, mei2010_dispersion  # noqa: E402
-from jaxlpm.batch.sweep import map_in_groups, save_npz_atomic, write_json_atomic  # noqa: E402
-from jaxlpm.collocation import lgl  # noqa: E402
-from jaxlpm.solvers import NewtonOptions, newton_transfer  # noqa: E402
+from jaxlpm.batch import map_in_groups, save_npz_atomic, write_json_atomic  # noqa: E402
+from jaxlpm.cases.mei2010 import dispersion, dispersion_parameters  # noqa: E402
+from jaxlpm.solution import control_interpolant  # noqa: E402
 from jaxlpm.status import Status  # noqa: E402
-from jaxlpm.verify import control_interpolant, propagate_nonlinear, terminal_error  # noqa: E402
+from jaxlpm.verify import propagate_nonlinear, terminal_error  # noqa: E402
 
 SCHEMA_VERSION = 1
 ROOT = Path(__file__).resolve().parent.parent
 N_POINTS = 65                       # default grid lgl(65): mei2010's N = 64
-_SOLUTION_META = ("problem", "grid", "method")
 
 
 def parse_args(argv=None):
@@ -110,21 +111,21 @@ def parse_args(argv=None):
 
 def solve_record(problem, grid, options):
     """Solve one problem; return a small record of flat arrays (no solution pytree)."""
-    sol = newton_transfer(problem, grid, options)
-    floats = [getattr(sol, name) for name in sol.__dataclass_fields__
-              if name not in _SOLUTION_META]
-    floats = [x for x in floats if jnp.issubdtype(x.dtype, jnp.floating)]
+    sol = solve(problem, grid, method="newton", options=options, throw=False)
+    st = sol.stats
+    floats = [x for x in jax.tree_util.tree_leaves((sol.cost, sol.trajectory, st))
+              if jnp.issubdtype(x.dtype, jnp.floating)]
     any_nan = jnp.any(jnp.stack([jnp.any(jnp.isnan(x)) for x in floats]))
     any_inf = jnp.any(jnp.stack([jnp.any(jnp.isinf(x)) for x in floats]))
     return dict(
-        status=sol.status, iterations=sol.iterations.astype(jnp.int32), cost=sol.cost,
-        constraint_residual=sol.constraint_residual,
-        stationarity_residual=sol.stationarity_residual, history=sol.history,
+        status=sol.status, iterations=st["iterations"].astype(jnp.int32), cost=sol.cost,
+        constraint_residual=st["constraint_residual"],
+        stationarity_residual=st["stationarity_residual"], history=st["history"],
         any_nan=any_nan, any_inf=any_inf,
-        max_position=jnp.max(jnp.linalg.norm(sol.states[:, :3], axis=1)),
-        max_velocity=jnp.max(jnp.linalg.norm(sol.states[:, 3:], axis=1)),
+        max_position=jnp.max(jnp.linalg.norm(sol.node_states[:, :3], axis=1)),
+        max_velocity=jnp.max(jnp.linalg.norm(sol.node_states[:, 3:], axis=1)),
         max_control=jnp.max(jnp.linalg.norm(sol.node_controls, axis=1)),
-        node_controls=sol.node_controls, s0=sol.s0, sf=sol.sf)
+        node_controls=sol.node_controls, s0=sol.trajectory.s0, sf=sol.trajectory.sf)
 
 
 def make_chunk_solver(grid, vmap_width, chunk, options=NewtonOptions()):
@@ -277,21 +278,15 @@ def verify(problems, rec, params, args, grid, out):
         idx = np.sort(rng.choice(ok, size=k, replace=False))
         sub = take(problems, jnp.asarray(idx))
 
-        class Nodal:           # the fields `control_interpolant` reads, from the stored records
-            def __init__(self, u, s0, sf):
-                self.grid, self.node_controls, self._s = grid, u, (s0, sf)
-
-            def anomaly_interval(self):
-                return self._s
-
         j2_on = args.model == "j2"
 
         def fly(p, u, s0, sf):
-            control = control_interpolant(Nodal(u, s0, sf))
+            # the stored nodal control as the solution's flight control (in the anomaly)
+            control = control_interpolant(grid, u, s0, sf, variable="anomaly")
             j2 = p.j2 if j2_on else 0.0 * p.j2
-            _, states, good = propagate_nonlinear(p.orbit, p.x0, p.duration, control,
-                                                  n_save=2, j2=j2, r_eq=p.r_eq)
-            return terminal_error(states, p.xf), good
+            _, states, status = propagate_nonlinear(p.orbit, p.x0, p.duration, control,
+                                                    n_save=2, j2=j2, r_eq=p.r_eq)
+            return terminal_error(states, p.xf), status == Status.SUCCESS
 
         t = time.time()
         miss, good = jax.jit(jax.vmap(fly))(
@@ -344,14 +339,14 @@ def main(argv=None):
     (out / "chunks").mkdir(parents=True, exist_ok=True)
     meta = dict(schema_version=SCHEMA_VERSION, n=args.n, seed=args.seed, chunk=args.chunk,
                 model=args.model, n_points=args.points, options=str(args.options),
-                dispersion="jaxlpm.batch.mei2010_dispersion(jax.random.key(seed), n, model)",
+                dispersion="jaxlpm.cases.mei2010.dispersion(jax.random.key(seed), n, model)",
                 command=" ".join([Path(sys.argv[0]).name] + sys.argv[1:]),
                 started=time.strftime("%Y-%m-%d %H:%M:%S %Z"), machine=platform.node(),
                 cpu_count=os.cpu_count(), jax=jax.__version__, git=git_state(),
                 backend=jax.default_backend())
     check_meta(out, meta)
 
-    problems = mei2010_dispersion(jax.random.key(args.seed), args.n, model=args.model)
+    problems = dispersion(jax.random.key(args.seed), args.n, model=args.model)
     params = dispersion_parameters(problems)
     grid = lgl(args.points)
     n_chunks = -(-args.n // args.chunk)

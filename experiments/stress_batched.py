@@ -4,7 +4,7 @@ jaxlib 0.10's batched CPU LAPACK kernels split a batch over XLA's intra-op threa
 block until it is done (`jax::ParallelBatchMap`); two such calls at once deadlock a 2-thread
 pool (`jaxlpm.linalg.sequential_when_batched`). This script runs
 
-    jax.jit(jax.vmap(jax.value_and_grad(lambda e: solve(problem(e), grid, method).cost)))
+    jax.jit(jax.vmap(jax.value_and_grad(lambda e: solve(problem(e), grid, method=method).cost)))
 
 for the STM and KKT laws (linear model, lgl(--n-laws)) and the Newton transfer (models
 "linear" and "two-body", lgl(--n-newton)) over eccentricities e = linspace(0.05, E_MAX, B),
@@ -65,7 +65,7 @@ def plan(args):
 def worker(call):
     """One call, in this process: prints its record (timings, statuses, finiteness) as JSON."""
     t0 = time.perf_counter()
-    import jaxlpm  # noqa: F401  (its CPU runtime settings first)
+    from jaxlpm import EnergyOptimalTransfer, KeplerOrbit, lgl, solve  # its CPU settings first
     import jax
     import jax.numpy as jnp
     import numpy as np
@@ -74,8 +74,6 @@ def worker(call):
     jax.config.update("jax_compilation_cache_dir", os.environ.get(
         "JAXLPM_CACHE_DIR", str(Path.home() / ".cache" / "jaxlpm" / "jax")))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
-    from jaxlpm import EnergyOptimalTransfer, KeplerOrbit, lgl, solve
-
     grid = lgl(call["n"])
 
     def cost(e):

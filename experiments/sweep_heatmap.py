@@ -1,15 +1,15 @@
-"""Cost of mei2010's rendezvous over (e, duration), and its convergence with N (issue 8).
+"""Cost of mei2010's rendezvous over (e, duration), and its convergence with the grid (issue 8).
 
 One resumable sweep (`jaxlpm.batch.sweep`, the KKT or STM law on the linear model) of
-mei2010's transfer over e x revolutions x N, the chief's perigee radius held (a = r_p / (1 - e),
-r_p = 9500 km x (1 - 0.3) = 6650 km, mei2010's chief), then two PNGs:
+mei2010's transfer over e x revolutions x grid size (lgl(points)), the chief's perigee radius
+held (a = r_p / (1 - e), r_p = 9500 km x (1 - 0.3) = 6650 km, mei2010's chief), then two PNGs:
   sweep_heatmap.png      log10 of the energy cost 1/2 int |u|^2 dt (m^2/s^3) over (e,
-                         revolutions) at the largest N; non-converged members drawn blank
-  sweep_convergence.png  per N: max and median over the grid of |J_N - J_Nmax| / J_Nmax, and
-                         the fraction converged
+                         revolutions) on the largest grid; non-converged members drawn blank
+  sweep_convergence.png  per grid size n (points): max and median over the members of
+                         |J_n - J_nmax| / J_nmax, and the fraction converged
 and sweep_summary.json beside them. Re-running the same command resumes the sweep.
 
-Run:  python experiments/sweep_heatmap.py --e 0:0.6:31 --revolutions 1:5:17 --N 8,16,32,64 \
+Run:  python experiments/sweep_heatmap.py --e 0:0.6:31 --revolutions 1:5:17 --points 9,17,33,65 \
           --method kkt --out results/sweep_heatmap
 """
 
@@ -36,8 +36,9 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--e", type=_values, default=_values("0:0.6:31"))
     ap.add_argument("--revolutions", type=_values, default=_values("1:5:17"))
-    ap.add_argument("--N", type=lambda t: _values(t, integer=True),
-                    default=_values("8,16,32,64", integer=True))
+    ap.add_argument("--points", type=lambda t: _values(t, integer=True),
+                    default=_values("9,17,33,65", integer=True),
+                    help="grid sizes lgl(points) (Mei 2010's degree N is points - 1)")
     ap.add_argument("--method", default="kkt", choices=("kkt", "stm"))
     ap.add_argument("--chunk", type=int, default=256)
     ap.add_argument("--out", default="results/sweep_heatmap")
@@ -45,35 +46,35 @@ def main(argv=None):
     print(f"compilation cache: {_setup_jax()}")
     out = Path(args.out)
     family = transfer_family("mei2010", mei2010.problem(), args.method, hold="perigee")
-    result = sweep(family, parameter_grid(e=args.e, revolutions=args.revolutions), args.N,
+    result = sweep(family, parameter_grid(e=args.e, revolutions=args.revolutions), args.points,
                    out / "sweep", chunk_size=args.chunk)
     shape = (len(args.e), len(args.revolutions))
-    top = max(args.N)
-    ok = {N: (t["status"] == 0).reshape(shape) for N, t in result.tables.items()}
-    cost = {N: np.where(ok[N], t["cost"].reshape(shape), np.nan)
-            for N, t in result.tables.items()}
+    top = max(args.points)
+    ok = {n: (t["status"] == 0).reshape(shape) for n, t in result.tables.items()}
+    cost = {n: np.where(ok[n], t["cost"].reshape(shape), np.nan)
+            for n, t in result.tables.items()}
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     im = ax.pcolormesh(args.revolutions, args.e, np.log10(cost[top]), shading="nearest")
     fig.colorbar(im, label=r"log$_{10}$ ½∫|u|²dt  (m²/s³)")
     ax.set(xlabel="duration (chief revolutions)", ylabel="chief eccentricity e",
-           title=f"mei2010 rendezvous, {args.method.upper()} law, N = {top} "
+           title=f"mei2010 rendezvous, {args.method.upper()} law, lgl({top}) "
                  f"(perigee radius held)")
     fig.tight_layout()
     fig.savefig(out / "sweep_heatmap.png", dpi=150)
 
     rows = []
-    for N in sorted(result.tables):
-        rel = np.abs(cost[N] - cost[top]) / cost[top]
-        rows.append(dict(N=N, converged=int(ok[N].sum()), members=int(ok[N].size),
+    for n in sorted(result.tables):
+        rel = np.abs(cost[n] - cost[top]) / cost[top]
+        rows.append(dict(points=n, converged=int(ok[n].sum()), members=int(ok[n].size),
                          max_rel_diff=float(np.nanmax(rel)),
                          median_rel_diff=float(np.nanmedian(rel))))
     fig, ax = plt.subplots(figsize=(6, 4))
-    Ns = [r["N"] for r in rows[:-1]]
-    ax.semilogy(Ns, [r["max_rel_diff"] for r in rows[:-1]], "o-", label="max over the grid")
-    ax.semilogy(Ns, [r["median_rel_diff"] for r in rows[:-1]], "s-", label="median")
-    ax.set(xlabel="N (grid lgl(N + 1))", ylabel=f"|J_N − J_{top}| / J_{top}",
-           title="convergence of the optimal cost with N")
+    sizes = [r["points"] for r in rows[:-1]]
+    ax.semilogy(sizes, [r["max_rel_diff"] for r in rows[:-1]], "o-", label="max over the members")
+    ax.semilogy(sizes, [r["median_rel_diff"] for r in rows[:-1]], "s-", label="median")
+    ax.set(xlabel="points n (grid lgl(n))", ylabel=f"|J_n − J_{top}| / J_{top}",
+           title="convergence of the optimal cost with the grid")
     ax.legend()
     fig.tight_layout()
     fig.savefig(out / "sweep_convergence.png", dpi=150)
@@ -82,8 +83,9 @@ def main(argv=None):
     (out / "sweep_summary.json").write_text(
         json.dumps(summary, indent=2, default=lambda x: np.asarray(x).tolist()))
     for r in rows:
-        print(f"N = {r['N']:>4}: {r['converged']}/{r['members']} converged; cost vs N = {top}: "
-              f"max rel diff {r['max_rel_diff']:.2e}, median {r['median_rel_diff']:.2e}")
+        print(f"{r['points']:>4} points: {r['converged']}/{r['members']} converged; cost vs "
+              f"{top} points: max rel diff {r['max_rel_diff']:.2e}, median "
+              f"{r['median_rel_diff']:.2e}")
     print(f"wrote {out}/sweep_heatmap.png, sweep_convergence.png, sweep_summary.json")
 
 

@@ -1,6 +1,7 @@
 """Command line: `jaxlpm reproduce <case> [--json FILE] [--out DIR]`, `jaxlpm list`,
-`jaxlpm sweep <case> --e A:B:n --revolutions A:B:n --N 16,32,64 [--method kkt] [--out DIR]
-[--sensitivities]` (resumable; see `jaxlpm.batch.sweep`)."""
+`jaxlpm sweep <case> --e A:B:n --revolutions A:B:n --points 17,33,65 [--method kkt] [--out DIR]
+[--sensitivities]` (resumable; see `jaxlpm.batch.sweep`). Grid sizes are numbers of points
+(lgl(65): 65 points, Mei 2010's degree N = 64)."""
 
 import argparse
 import json
@@ -123,29 +124,42 @@ def _sweep(args):
     held = family.definition["held_when_e_varies"]
     print(f"jaxlpm sweep {args.case} (method {args.method}): "
           + ", ".join(f"{k} {len(v)} values in [{v.min():g}, {v.max():g}]" for k, v in axes.items())
-          + f", N = {args.N}; when e varies the chief's {held} is held\n"
-          f"compilation cache: {cache}\nresults: {out}", flush=True)
+          + f", grids lgl(points), points = {args.points}; when e varies the chief's {held} is "
+          f"held\ncompilation cache: {cache}\nresults: {out}", flush=True)
     try:
-        result = sweep(family, parameter_grid(**axes), args.N, out, chunk_size=args.chunk,
+        result = sweep(family, parameter_grid(**axes), args.points, out, chunk_size=args.chunk,
                        batch_size=args.batch_size, progress=not args.no_progress)
     except ValueError as err:
         raise SystemExit(f"jaxlpm sweep: {err}") from None
     stats = result.statistics()
-    for N, s in result.summary().items():
+    for n, s in result.summary().items():
         bad = s["not_converged"]
-        print(f"N = {N:>4}: {s['converged']}/{s['members']} converged"
+        print(f"{n:>4} points: {s['converged']}/{s['members']} converged"
               + (f"; not converged: members {bad[:20]}{' ...' if len(bad) > 20 else ''} "
                  f"({', '.join(f'{k} {v}' for k, v in s['status_counts'].items())})"
                  if bad else ""))
         for col, unit in (("cost", "m^2/s^3"), ("delta_v", "m/s")):
-            c = stats[int(N)][col]
+            c = stats[int(n)][col]
             if c["converged"]:
                 print(f"         {col} over the converged ({unit}): median "
                       f"{c['percentiles'][50.0]:.6g}, 5-95 % [{c['percentiles'][5.0]:.6g}, "
                       f"{c['percentiles'][95.0]:.6g}], mean {c['mean']:.6g}")
-    print(f"results in {out} (manifest.json; N<N>/chunk_*.npz, one row per member; "
+    print(f"results in {out} (manifest.json; points<n>/chunk_*.npz, one row per member; "
           f"jaxlpm.batch.load_sweep reads them)")
     return 0
+
+
+class _DegreeGone(argparse.Action):
+    """--N (the polynomial degree) is refused with the point counts it meant."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        try:
+            points = ",".join(str(int(v) + 1) for v in values.split(","))
+            hint = f" (--N {values} is --points {points})"
+        except ValueError:
+            hint = ""
+        parser.error(f"--N (the polynomial degree N, grid lgl(N + 1)) is no longer accepted: "
+                     f"give the grid sizes as numbers of points, --points{hint}")
 
 
 def main(argv=None):
@@ -161,17 +175,20 @@ def main(argv=None):
     lst = sub.add_parser("list", help="list the reproducible cases")
     lst.set_defaults(func=_list)
     swp = sub.add_parser(
-        "sweep", help="solve a case's transfer over a grid of e, durations and N (resumable)",
+        "sweep", help="solve a case's transfer over a grid of e, durations and grid sizes "
+                      "(resumable)",
         description="Solve the case's transfer for every combination of the given values at "
-                    "every N; re-running the same command resumes. Values: 'a:b:n' (linspace) "
-                    "or 'v1,v2,...'.")
+                    "every grid size (points); re-running the same command resumes. Values: "
+                    "'a:b:n' (linspace) or 'v1,v2,...'.")
     swp.add_argument("case", choices=SWEEP_CASES)
     swp.add_argument("--e", type=_values, help="chief eccentricities")
     dur = swp.add_mutually_exclusive_group()
     dur.add_argument("--revolutions", type=_values, help="durations in chief orbital periods")
     dur.add_argument("--duration", type=_values, help="durations in s")
-    swp.add_argument("--N", type=lambda t: _values(t, integer=True), required=True,
-                     help="grid sizes: the polynomial degree N, grid lgl(N + 1), e.g. 16,32,64")
+    swp.add_argument("--points", type=lambda t: _values(t, integer=True), required=True,
+                     help="grid sizes as numbers of points, grids lgl(points), e.g. 17,33,65 "
+                          "(Mei 2010's degree N = 64 is 65 points)")
+    swp.add_argument("--N", action=_DegreeGone, help=argparse.SUPPRESS)
     swp.add_argument("--method", default="kkt", choices=("kkt", "stm", "newton"),
                      help="kkt/stm: the linear laws (linear model); newton: Newton-KKT on the "
                           "nonlinear two-body model (default kkt)")

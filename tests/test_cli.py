@@ -26,7 +26,7 @@ def no_computation(monkeypatch):
     monkeypatch.setattr(jaxlpm.batch, "sweep", computing)      # what the CLI imports
 
 
-SWEEP = ["sweep", "mei2010", "--e", "0.1", "--N", "8", "--no-progress"]
+SWEEP = ["sweep", "mei2010", "--e", "0.1", "--points", "9", "--no-progress"]
 
 
 # argv from (a regular file f, an existing directory d); the message that must end stderr

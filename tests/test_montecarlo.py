@@ -1,7 +1,11 @@
-"""Monte Carlo (re-plan per dispersed sample; one plan flown with execution errors), the
-sweep's delta-v, statistics over converged members only, and batched sensitivities (d cost,
-d delta-v, d u(t0)/d x0) against central differences. Small grids and sample counts: compile
-time dominates; the persistent cache (conftest.py) serves reruns."""
+"""Monte Carlo (re-plan per sample of a user's dispersion, of any family; one plan flown
+with execution errors on its own model or another), the Solution's delta-v, statistics over
+SUCCESS members only, and batched sensitivities (d cost, d delta-v, d u(t0)/d x0) against
+central differences. Small grids and sample counts: compile time dominates; the persistent
+cache (conftest.py) serves reruns."""
+
+import dataclasses
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -11,10 +15,9 @@ import pytest
 jax.config.update("jax_enable_x64", True)
 
 import jaxlpm as lpm  # noqa: E402
-from jaxlpm.batch import (ExecutionErrors, Family, converged_statistics,  # noqa: E402
-                          dispersion_parameters, execution_draws, execution_monte_carlo,
-                          mei2010_dispersion, replan_monte_carlo, sensitivity_family, sweep,
-                          transfer_family)
+from jaxlpm.batch import (ExecutionErrors, SweepFamily, converged_statistics,  # noqa: E402
+                          execution_draws, execution_monte_carlo, replan_monte_carlo,
+                          sensitivity_family, sweep, transfer_family)
 from jaxlpm.batch.montecarlo import _rotation  # noqa: E402
 from jaxlpm.cases import mei2010  # noqa: E402
 from jaxlpm.status import Status  # noqa: E402
@@ -42,12 +45,13 @@ def test_statistics_leave_out_non_converged():
     value; they are counted and listed, and the statistics see only the others."""
     x = np.array([0.1, 0.9, 0.2, 0.3, 0.7])
 
-    def solve(p, grid):
+    def solver(p, grid, method, options):
         bad = p["x"] > 0.5
         return dict(status=jnp.where(bad, Status.MAX_ITERATIONS, Status.SUCCESS).astype(
                         jnp.int32), value=jnp.where(bad, 1e9, p["x"] * grid))
 
-    fam = Family(name="synthetic", build=lambda p: p, solve=solve, grid=lambda N: float(N))
+    fam = SweepFamily(name="synthetic", build=lambda p: p, grid=float, solver=solver,
+                      record=dict)
     result = sweep(fam, dict(x=x), [2], chunk_size=2, progress=False)
     s = result.summary()["2"]
     assert s["converged"] == 3 and s["not_converged"] == [1, 4]
@@ -62,22 +66,76 @@ def test_statistics_leave_out_non_converged():
 
 
 def test_replan_monte_carlo_is_reproducible():
-    """Same key: the same draw (the dispersion's own parameters) and bit-identical results;
-    another key: another draw. KKT law at N = 8, 6 samples."""
+    """mei2010's own dispersion (its case's, on the linear model): same key, the same draw
+    (the dispersion's parameters in the table's problem.* columns) and bit-identical results;
+    another key, another draw. KKT law on lgl(9), 6 samples."""
     key = jax.random.key(7)
-    runs = [replan_monte_carlo(key, 6, [8], chunk_size=6, batch_size=1, progress=False)
-            for _ in range(2)]
-    table = dispersion_parameters(mei2010_dispersion(key, 6))
-    a, b = runs[0].tables[8], runs[1].tables[8]
-    for name in ("e", "a", "duration", "x0"):
-        np.testing.assert_array_equal(a[name], table[name])
+    linear = functools.partial(mei2010.dispersion, model="linear")
+    runs = [replan_monte_carlo(key, 6, linear, [9], method="kkt", chunk_size=6, batch_size=1,
+                               progress=False) for _ in range(2)]
+    table = mei2010.dispersion_parameters(linear(key, 6))
+    a, b = runs[0].tables[9], runs[1].tables[9]
+    for name in ("e", "a"):
+        np.testing.assert_array_equal(a[f"problem.orbit.{name}"], table[name])
+    for name in ("duration", "x0"):
+        np.testing.assert_array_equal(a[f"problem.{name}"], table[name])
+    np.testing.assert_array_equal(a["duration"], table["duration"])    # the Solution's
     for name in a:
         np.testing.assert_array_equal(a[name], b[name])
-    assert runs[0].converged() == {8: 6}
-    s = runs[0].statistics()[8]
+    assert runs[0].converged() == {9: 6}
+    s = runs[0].statistics()[9]
     assert s["delta_v"]["converged"] == 6 and s["cost"]["min"] > 0.0
-    other = dispersion_parameters(mei2010_dispersion(jax.random.key(8), 6))
+    other = mei2010.dispersion_parameters(linear(jax.random.key(8), 6))
     assert not np.any(other["e"] == table["e"])
+
+
+MASS = 100.0         # kg
+
+
+def release_dispersion(key, n):
+    """A user's dispersion of another family: minimum-time releases from rest at a circular
+    chief (500 km altitude) to a point 50 m ahead at rest, the thrust U[0.2, 1] N, the start
+    dispersed by 1 m and 1 mm/s (one sigma per axis) -- one batched MinimumTimeTransfer."""
+    orbit = lpm.KeplerOrbit(a=jnp.asarray(6878.137e3), e=jnp.asarray(0.0))
+
+    def one(k):
+        k_thrust, k_r, k_v = jax.random.split(k, 3)
+        x0 = jnp.concatenate([jax.random.normal(k_r, (3,)), 1e-3 * jax.random.normal(k_v, (3,))])
+        return lpm.MinimumTimeTransfer(orbit, x0, jnp.array([0.0, 50.0, 0.0, 0.0, 0.0, 0.0]),
+                                       jax.random.uniform(k_thrust, (), minval=0.2, maxval=1.0),
+                                       jnp.asarray(MASS))
+
+    return jax.vmap(one)(jax.random.split(key, n))
+
+
+def test_replan_monte_carlo_of_another_family():
+    """`replan_monte_carlo` with a user's dispersion of minimum-time transfers (the default
+    method, grids lg(8)): every sample SUCCESS, its parameters in the table, the record from
+    its Solution (t_f, delta_v = (T / m) t_f at constant thrust, to the unit-direction
+    tolerance 1e-9). 4 samples, one compile (~10 s)."""
+    key = jax.random.key(5)
+    result = replan_monte_carlo(key, 4, release_dispersion, [8], grid=lpm.lg, chunk_size=4,
+                                progress=False)
+    t = result.tables[8]
+    drawn = release_dispersion(key, 4)
+    np.testing.assert_array_equal(t["problem.thrust"], drawn.thrust)
+    np.testing.assert_array_equal(t["problem.x0"], drawn.x0)
+    assert t["problem.duration_bounds"].shape == (4, 2)
+    assert result.converged() == {8: 4}
+    assert np.all(t["duration"] >= t["duration_lower_bound"])
+    np.testing.assert_allclose(t["delta_v"], t["problem.thrust"] / MASS * t["duration"],
+                               rtol=1e-8)
+    stats = result.statistics(columns=("duration",))[8]["duration"]
+    assert stats["converged"] == 4 and stats["min"] > 0.0
+
+
+def test_replan_monte_carlo_checks_the_draw():
+    with pytest.raises(ValueError, match="leading axis of every array leaf"):
+        replan_monte_carlo(jax.random.key(0), 3, lambda key, n: release_dispersion(
+            key, n).replace(duration_bounds=jnp.array([0.0, jnp.inf])), [8], grid=lpm.lg)
+    with pytest.raises(ValueError, match="must return 3 problems"):
+        replan_monte_carlo(jax.random.key(0), 3, lambda key, n: release_dispersion(key, 2),
+                           [8], grid=lpm.lg)
 
 
 def test_rotation():
@@ -106,13 +164,49 @@ def test_execution_draws():
 
 
 @pytest.fixture(scope="module")
-def linear_flights():
-    """mei2010's KKT plan (N = 32) flown 16 times through the linear model with thrust
-    magnitude and navigation errors (no direction error: the flight is then affine in them)."""
-    plan = lpm.solve(mei2010.problem(), lpm.lgl(33), method="kkt")
+def plan():
+    """mei2010's KKT plan on lgl(33) (its problem's model: linear)."""
+    return lpm.solve(mei2010.problem(), lpm.lgl(33), method="kkt")
+
+
+@pytest.fixture(scope="module")
+def linear_flights(plan):
+    """The plan flown 16 times on its own model (the default: linear) with thrust magnitude
+    and navigation errors (no direction error: the flight is then affine in them)."""
     errors = ExecutionErrors(magnitude=0.02, position=10.0, velocity=0.01)
-    return plan, errors, execution_monte_carlo(jax.random.key(11), plan, 16, errors,
-                                               model="linear")
+    return plan, errors, execution_monte_carlo(jax.random.key(11), plan, 16, errors)
+
+
+def test_the_nominal_flight_is_verify_fly(linear_flights):
+    """The default model is the plan's own, as `jaxlpm.verify.fly`'s, and the error-free row
+    is its flight: the same propagator and control, other save times (dense output), so the
+    same terminal error to the integrator's round-off (1e-9 relative)."""
+    plan, _, r = linear_flights
+    assert r["model"] == "linear"
+    flight = lpm.verify.fly(plan)
+    np.testing.assert_allclose(r["nominal"], flight.terminal_error, rtol=1e-9)
+
+
+def test_the_j2_model_takes_the_problem_j2(plan):
+    """model "j2" flies with the plan's problem's j2: with j2 = 0 it is the two-body flight
+    (bit for bit: the same right-hand side with a zero term), with Earth's J2 it is not."""
+    flat = dataclasses.replace(plan, problem=plan.problem.replace(j2=jnp.asarray(0.0)))
+    earth = dataclasses.replace(plan, problem=plan.problem.replace(j2=jnp.asarray(1.08e-3)))
+    errors = ExecutionErrors(position=10.0)
+    key = jax.random.key(2)
+    two_body = execution_monte_carlo(key, flat, 2, errors, model="two-body")
+    j2_zero = execution_monte_carlo(key, flat, 2, errors, model="j2")
+    j2_earth = execution_monte_carlo(key, earth, 2, errors, model="j2")
+    np.testing.assert_array_equal(j2_zero["final_state"], two_body["final_state"])
+    assert np.all(np.abs(j2_earth["position_miss"] - two_body["position_miss"]) > 100.0)
+
+
+def test_execution_monte_carlo_checks_its_plan(plan):
+    batch = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), plan)
+    with pytest.raises(ValueError, match="unbatched"):
+        execution_monte_carlo(jax.random.key(0), batch, 2, ExecutionErrors())
+    with pytest.raises(ValueError, match="model must be one of"):
+        execution_monte_carlo(jax.random.key(0), plan, 2, ExecutionErrors(), model="hcw")
 
 
 def test_execution_errors_on_the_linear_model(linear_flights):
@@ -141,7 +235,7 @@ def test_execution_monte_carlo_is_reproducible(linear_flights):
 
 def test_sensitivities_against_central_differences():
     """d cost / d (e, revolutions, x0) and d delta_v / d e (e with the perigee radius held),
-    and the gain d u(t0) / d x0, from one batched sensitivity sweep (KKT law, N = 8) whose
+    and the gain d u(t0) / d x0, from one batched sensitivity sweep (KKT law, lgl(9)) whose
     members include the central-difference neighbours of the base member.
     Cost is quadratic and u linear in x0 for the LQ law, so their central differences are
     exact but for round-off: ~1e-16 relative over a relative step of 1e-4 (1 m of 14 km),
@@ -157,7 +251,7 @@ def test_sensitivities_against_central_differences():
         rows += [(e0, rev0, x0 + s * h * np.eye(6)[i]) for s in (1, -1)]
     params = dict(e=np.array([r[0] for r in rows]), revolutions=np.array([r[1] for r in rows]),
                   x0=np.array([r[2] for r in rows]))
-    t = sweep(fam, params, [8], chunk_size=len(rows), progress=False).tables[8]
+    t = sweep(fam, params, [9], chunk_size=len(rows), progress=False).tables[9]
     assert np.all(t["status"] == Status.SUCCESS)
 
     def central(column, k):                    # rows 2k+1, 2k+2 hold the +/- neighbours
@@ -179,4 +273,4 @@ def test_sensitivity_wrt_must_name_parameters():
     fam = sensitivity_family(transfer_family("mei2010", mei2010.problem(), "kkt"),
                              wrt=("duration",))
     with pytest.raises(ValueError, match="wrt names"):
-        sweep(fam, dict(e=np.array([0.1])), [8], progress=False)
+        sweep(fam, dict(e=np.array([0.1])), [9], progress=False)

@@ -340,15 +340,15 @@ def test_continuation_rescues_a_failed_start(batch_two_body):
 
 
 def test_stall_test_ends_a_stuck_solve_and_the_continuation_finishes_it():
-    """A dispersed transfer (member 1023 of mei2010_dispersion(PRNGKey(3), 1024): e 0.67, 4.8
+    """A dispersed transfer (member 1023 of mei2010.dispersion(PRNGKey(3), 1024): e 0.67, 4.8
     revolutions, a 20 km start) whose direct Newton solve at N = 32 gets stuck: the line search
     accepts only tiny steps along a huge, nearly singular Newton step. The stall test ends it
     as STALLED once the KKT residual has not fallen below 0.9 of its best over
     `stall_iterations` (8) iterations, long before the iteration limit (40); the separation
     continuation (secant predictor from the linear warm start) then converges."""
-    from jaxlpm.batch.dispersion import mei2010_dispersion
+    from jaxlpm.cases.mei2010 import dispersion
     prob = jax.tree_util.tree_map(lambda x: x[1023],
-                                  mei2010_dispersion(jax.random.PRNGKey(3), 1024, "two-body"))
+                                  dispersion(jax.random.PRNGKey(3), 1024, "two-body"))
     grid = lpm.lgl(33)
     opts = lpm.NewtonOptions(max_continuation=0)
     direct = quick(lambda p: newton_transfer(p, grid, opts), prob)

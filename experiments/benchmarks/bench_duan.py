@@ -1,6 +1,6 @@
 """Benchmark of the minimum-time augmented-Lagrangian solver against CasADi + IPOPT (issue 4).
 
-The NLP: `min_time_transfer(duan.problem(), lg(100))`, the paper's Gauss pseudospectral
+The NLP: `solve(duan.problem(), lg(100))`, the paper's Gauss pseudospectral
 transcription (jaxlpm.problems.min_time / transcription) in the solver's units: s = n t, state
 [r / L, v / (L n)] (L = |r_f|), control u (unit direction), acceleration a~ = (T / m) / (L n^2),
   unknowns     X (K + 2 rows: -1, the K LG points, +1) x 6, U (K x 3), s_f       (915)
@@ -23,7 +23,7 @@ Measured: our cold compile (lower + compile, caches cleared, persistent cache of
 steady-state time (median of repeats), IPOPT's build time and solve time (median of repeats);
 the ratio ours / IPOPT of steady-state times. Wall and process CPU time are both recorded.
 
-Run:  python experiments/benchmarks/bench_duan.py [--K 100]
+Run:  python experiments/benchmarks/bench_duan.py [--K 100]     (K: LG points, the paper's K)
       [--out results/bench_duan.json]          (needs the `peer` extra: casadi)
 """
 
@@ -32,14 +32,13 @@ import json
 import os
 import time
 
-import jaxlpm  # noqa: F401  (sets the CPU runtime before numpy/casadi load)
+from jaxlpm import lg, solve  # first: it sets the CPU runtime before numpy/casadi load
 
 import casadi as ca  # noqa: E402
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
 
 from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
-from jaxlpm import lg, min_time_transfer  # noqa: E402
 from jaxlpm.cases import duan  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402
 from jaxlpm.problems.min_time import duration_lower_bound, min_time_ocp  # noqa: E402
@@ -77,7 +76,7 @@ def build_ipopt(K, D, w, options=IPOPT_OPTIONS):
 
 def main(argv=None):
     ap = argparse.ArgumentParser()
-    ap.add_argument("--K", type=int, default=100)
+    ap.add_argument("--K", type=int, default=100, help="LG points (the paper's K = 100)")
     ap.add_argument("--out", default="results/bench_duan.json")
     args = ap.parse_args(argv)
     jax.config.update("jax_enable_x64", True)
@@ -85,14 +84,14 @@ def main(argv=None):
     res = {"machine": machine_info(casadi=ca.__version__), "K": args.K}
 
     def ours_fn(p):
-        return min_time_transfer(p, grid)
+        return solve(p, grid, throw=False)          # the augmented-Lagrangian solver
 
     compiled, comp = cold_compile(ours_fn, prob)
     sol = block(compiled(prob))
     run = timed(lambda: block(compiled(prob)), min_repeats=3, budget_s=20.0)
     ours = dict(compile=comp, solve=run, tf=float(sol.duration), status=int(sol.status),
-                outer_iterations=int(sol.outer_iterations),
-                inner_iterations=int(sol.inner_iterations))
+                outer_iterations=int(sol.stats["outer_iterations"]),
+                inner_iterations=int(sol.stats["inner_iterations"]))
     print(f"[ours] compile {comp['total_s']:.1f} s (lower {comp['lower_s']:.1f}), solve "
           f"{run['median_s']:.3f} s (median of {run['repeats']}), t_f = {ours['tf']:.9f} s, "
           f"{ours['outer_iterations']} outer / {ours['inner_iterations']} Newton iterations")

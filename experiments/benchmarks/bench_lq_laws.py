@@ -33,7 +33,7 @@ import time
 # jaxlpm sets its CPU runtime at import (jaxlpm/_cpu_runtime.py: one OpenBLAS thread, XLA's
 # sequential CPU scheduler, which avoids a jaxlib 0.10 deadlock in batched QR): import it before
 # numpy/scipy so the peers run under the same settings.
-import jaxlpm  # noqa: E402, F401
+from jaxlpm import EnergyOptimalTransfer, KeplerOrbit, lgl, solve  # noqa: E402
 
 import faulthandler  # noqa: E402
 
@@ -49,11 +49,7 @@ import scipy  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 import scipy.sparse.linalg as spla  # noqa: E402
 
-from jaxlpm.collocation import lgl  # noqa: E402
-from jaxlpm.orbits import KeplerOrbit  # noqa: E402
-from jaxlpm.problems import EnergyOptimalTransfer  # noqa: E402
-from jaxlpm.solvers import kkt_law, solve, stm_law  # noqa: E402
-from jaxlpm.solvers.lq import _setup  # noqa: E402
+from jaxlpm.solvers.lq import _setup, kkt_law, stm_law  # noqa: E402
 from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
 
 A_CHIEF = 9500e3
@@ -234,16 +230,14 @@ def main(argv=None):
         run_aot = timed(lambda: block(compiled(prob, grid)), min_repeats=20, budget_s=1.0)
         single[name] = dict(compile=comp, solve=run, solve_aot_executable=run_aot,
                             status=int(sol.status), cost=float(sol.cost),
-                            cost_true_anomaly=float(sol.cost_true_anomaly))
+                            cost_true_anomaly=float(sol.stats["cost_true_anomaly"]))
         print(f"[single {name}] compile {comp['total_s']:.3f} s, solve "
               f"{run['median_s'] * 1e3:.3f} ms (median of {run['repeats']})", flush=True)
     # solve() is the public entry point: the jitted law plus host-side validation
-    block(solve(prob, grid, "kkt"))
-    single["kkt"]["solve_public_api"] = timed(lambda: block(solve(prob, grid, "kkt")),
-                                              min_repeats=10, budget_s=1.0)
-    block(solve(prob, grid, "stm"))
-    single["stm"]["solve_public_api"] = timed(lambda: block(solve(prob, grid, "stm")),
-                                              min_repeats=10, budget_s=1.0)
+    for name in LAWS:
+        block(solve(prob, grid, method=name))
+        single[name]["solve_public_api"] = timed(
+            lambda: block(solve(prob, grid, method=name)), min_repeats=10, budget_s=1.0)
     res["single"] = single
 
     # 2. batched ----------------------------------------------------------------------------
@@ -268,14 +262,15 @@ def main(argv=None):
         print(f"[batch {name}] compile {comp['total_s']:.3f} s, batch "
               f"{run['median_s'] * 1e3:.1f} ms, {batched[name]['problems_per_s']:.0f} problems/s,"
               f" status 0: {batched[name]['converged']}/{status.size}", flush=True)
-    cst = np.asarray(batch_sols["stm"].cost_true_anomaly)
-    ckk = np.asarray(batch_sols["kkt"].cost_true_anomaly)
+    cst = np.asarray(batch_sols["stm"].stats["cost_true_anomaly"])
+    ckk = np.asarray(batch_sols["kkt"].stats["cost_true_anomaly"])
     batched["stm_vs_kkt_cost_max_rel_diff"] = float(np.max(np.abs(cst - ckk) / np.abs(ckk)))
     # batched members equal single solves (spot check at the member nearest e = 0.3)
     i03 = int(np.argmin(np.abs(es - E_CASE)))
     s03 = block(jax.jit(kkt_law)(make_problem(float(es[i03])), grid))
     batched["kkt_batch_vs_single_rel_diff"] = float(
-        abs(ckk[i03] - float(s03.cost_true_anomaly)) / abs(float(s03.cost_true_anomaly)))
+        abs(ckk[i03] - float(s03.stats["cost_true_anomaly"]))
+        / abs(float(s03.stats["cost_true_anomaly"])))
     res["batched"] = batched
 
     # shared TH data for the peers (from jaxlpm's prelude; not timed)
@@ -284,7 +279,7 @@ def main(argv=None):
     w = np.asarray(grid.weights)
     n = D.shape[0]
     idx = np.unique(np.linspace(0, args.batch - 1, args.n_peer).round().astype(int))
-    kkt_X = np.asarray(batch_sols["kkt"].node_states_th)
+    kkt_X = np.asarray(batch_sols["kkt"].stats["node_states_th"])
     kkt_U_si = np.asarray(batch_sols["kkt"].node_controls)
 
     def rel_state_err(i, Q, V):

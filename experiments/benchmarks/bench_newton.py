@@ -27,10 +27,10 @@ Measured:
      (--batches), and --mapped M problems in one jitted call that runs lax.map over vmapped
      groups of --map-width (a vmapped while-loop runs every member for the slowest one's
      iterations; the map does not)
-     (`jaxlpm.batch.mei2010_dispersion(PRNGKey(seed), B, "two-body")`: chief perigee altitude
+     (`jaxlpm.cases.mei2010.dispersion(PRNGKey(seed), B, "two-body")`: chief perigee altitude
      600 km, e in [0, 0.7], 1-5 revolutions, f0 and argp uniform, x0 position in a +-25 km cube,
-     velocity +-10 m/s, xf = 0; `own_dispersion` below draws the same family if that module is
-     missing), compile and time per batch, convergence counts; IPOPT one problem at a time over
+     velocity +-10 m/s, xf = 0), compile and time per batch, convergence counts; IPOPT one
+     problem at a time over
      the first --n-ipopt members of the largest batch (the same problems; all of them with
      --n-ipopt 1024). Throughput is problems per second of solving: ours B / (one batched
      call), IPOPT's n / (the sum of its n solve times); the rate of IPOPT's median solve
@@ -61,7 +61,7 @@ import time
 
 # jaxlpm sets its CPU runtime at import (one OpenBLAS thread, XLA's sequential CPU scheduler):
 # import it before numpy/scipy/casadi so every solver runs under the same settings.
-import jaxlpm  # noqa: E402, F401
+from jaxlpm import lgl  # noqa: E402
 
 import faulthandler  # noqa: E402
 
@@ -74,19 +74,16 @@ import casadi as ca  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
+from jaxlpm.batch import map_in_groups  # noqa: E402
 from jaxlpm.cases import mei2010  # noqa: E402
-from jaxlpm.collocation import lgl  # noqa: E402
-from jaxlpm.constants import R_EARTH  # noqa: E402
-from jaxlpm.orbits import KeplerOrbit  # noqa: E402
-from jaxlpm.problems import EnergyOptimalTransfer  # noqa: E402
 from jaxlpm.problems.energy_optimal import control_scale, cost_scale, transfer_ocp  # noqa: E402
 from jaxlpm.nlp.transcription import (equality, equality_jacobian,  # noqa: E402
                                            lagrangian_hessian, objective)
-from jaxlpm.batch.sweep import map_in_groups  # noqa: E402
-from jaxlpm.solvers import newton_transfer  # noqa: E402
 from jaxlpm.nlp.condensed import CondensedSecondOrder  # noqa: E402
 from jaxlpm.nlp.newton import _kkt_step, kkt_residual  # noqa: E402
-from jaxlpm.solvers.transfer import _warm_start  # noqa: E402
+# newton_transfer: the solver behind solve(..., method="newton"), called directly for its
+# linear_algebra choice (not an option of the public entry point)
+from jaxlpm.solvers.transfer import _warm_start, newton_transfer  # noqa: E402
 from common import block, cold_compile, machine_info, timed  # noqa: E402  (this directory)
 
 N_POINTS = 65                 # LGL N = 64
@@ -97,12 +94,6 @@ IPOPT_OPTIONS = {"ipopt.tol": 1e-10, "ipopt.print_level": 0, "ipopt.sb": "yes",
 TARGETS = dict(single_time_ratio_max=0.5,        # ours / IPOPT's, one problem
                batched_throughput_ratio_min=10.0,  # ours batched problems/s / IPOPT's
                compile_s_max=15.0)
-# dispersion (issue 3): chief perigee altitude, e range, revolutions, f0, x0 box
-PERIGEE_ALT = 600e3
-E_RANGE = (0.0, 0.7)
-REV_RANGE = (1.0, 5.0)
-POS_BOX = 25e3
-VEL_BOX = 10.0
 
 
 # ----------------------------------------------------------------------------------- helpers
@@ -110,38 +101,9 @@ def single_problem():
     return mei2010.problem().replace(model=MODEL)
 
 
-def own_dispersion(key, n, model=MODEL):
-    """n transfers (one pytree, leading axis n): chief perigee altitude 600 km, e ~ U[0, 0.7],
-    duration ~ U[1, 5] chief periods, f0 ~ U[0, 2 pi), x0 position ~ U[-25, 25] km per axis,
-    velocity ~ U[-10, 10] m/s per axis, xf = 0; i, raan, argp as mei2010 (they do not enter
-    the two-body relative dynamics)."""
-    ke, kr, kf, kp, kv = jax.random.split(key, 5)
-    e = jax.random.uniform(ke, (n,), minval=E_RANGE[0], maxval=E_RANGE[1])
-    a = (R_EARTH + PERIGEE_ALT) / (1.0 - e)
-    revs = jax.random.uniform(kr, (n,), minval=REV_RANGE[0], maxval=REV_RANGE[1])
-    f0 = jax.random.uniform(kf, (n,), minval=0.0, maxval=2.0 * np.pi)
-    pos = jax.random.uniform(kp, (n, 3), minval=-POS_BOX, maxval=POS_BOX)
-    vel = jax.random.uniform(kv, (n, 3), minval=-VEL_BOX, maxval=VEL_BOX)
-    base = mei2010.problem().orbit
-    ones = jnp.ones(n)
-    orbit = KeplerOrbit(a=a, e=e, i=base.i * ones, raan=base.raan * ones,
-                        argp=base.argp * ones, f0=f0, mu=base.mu * ones)
-    return EnergyOptimalTransfer(orbit, jnp.concatenate([pos, vel], axis=1), jnp.zeros((n, 6)),
-                                 revs * orbit.period, model=model,
-                                 j2=jnp.full(n, float(mei2010.problem().j2)),
-                                 r_eq=jnp.full(n, float(mei2010.problem().r_eq)))
-
-
 def dispersion(key, n):
-    """The library's sampler if it exists (jaxlpm.batch.dispersion), else `own_dispersion`."""
-    try:
-        from jaxlpm.batch.dispersion import mei2010_dispersion
-        probs = mei2010_dispersion(key, n, MODEL)
-        if isinstance(probs, EnergyOptimalTransfer) and np.shape(probs.x0) == (n, 6):
-            return probs, "jaxlpm.batch.dispersion.mei2010_dispersion"
-    except Exception:   # noqa: BLE001  (not written yet, or another signature)
-        pass
-    return own_dispersion(key, n), "bench_newton.own_dispersion"
+    """mei2010's dispersion (its case's) on the two-body model, and its name."""
+    return mei2010.dispersion(key, n, MODEL), "jaxlpm.cases.mei2010.dispersion"
 
 
 def take(tree, i):
@@ -299,7 +261,7 @@ def profile(prob, grid, sol):
                 jnp.block([[H, A.T], [A, jnp.zeros((A.shape[0],) * 2)]])), (H, A)),
     }
     out = time_pieces(pieces)
-    it = int(sol.iterations)
+    it = int(sol.stats["iterations"])
     # every loop pass (iterations + the final pass that detects convergence) assembles H and A
     # and solves the KKT system once (more on a regularisation retry): sum the pieces
     per_pass = (out["kkt_residual (grad L by autodiff, c)"] * 2     # residuals + watchdog
@@ -359,7 +321,7 @@ def profile_condensed(prob, grid, sol):
             (with_la(lambda la, pr, H, g, c: la.solve(pr, H, g, c, 0.0, 0.0)), (prep, H, g, c)),
     }
     out = time_pieces(pieces)
-    it = int(sol.iterations)
+    it = int(sol.stats["iterations"])
     per_pass = sum(v for k, v in out.items() if k.startswith(("kkt", "prepare", "hessian",
                                                               "solve")))
     passes = it + 1
@@ -408,9 +370,12 @@ def main(argv=None):
                          "-23.485, 0]) on model two-body", lgl_points=N_POINTS,
                          N=N_POINTS - 1, model=MODEL, variables=9 * N_POINTS,
                          constraints=6 * N_POINTS + 12,
-                         dispersion=dict(perigee_altitude_m=PERIGEE_ALT, e=E_RANGE,
-                                         revolutions=REV_RANGE, f0="U[0, 2 pi)",
-                                         x0_position_box_m=POS_BOX, x0_velocity_box_m_s=VEL_BOX,
+                         dispersion=dict(perigee_altitude_m=mei2010.PERIGEE_ALTITUDE,
+                                         e=mei2010.E_RANGE,
+                                         revolutions=mei2010.REVOLUTIONS_RANGE,
+                                         f0="U[0, 2 pi)",
+                                         x0_position_box_m=mei2010.POSITION_HALF_WIDTH,
+                                         x0_velocity_box_m_s=mei2010.VELOCITY_HALF_WIDTH,
                                          xf="0", seed=args.seed)),
                targets=TARGETS, machine=machine_info(casadi=ca.__version__),
                ipopt_options=IPOPT_OPTIONS)
@@ -422,10 +387,11 @@ def main(argv=None):
     run = timed(lambda: block(compiled(prob, grid)), min_repeats=10,
                 budget_s=args.single_repeats_s)
     run["loadavg"] = os.getloadavg()
-    ours = dict(compile=comp, solve=run, status=int(sol.status), iterations=int(sol.iterations),
-                cost_m2_s3=float(sol.cost), constraint_residual=float(sol.constraint_residual),
-                stationarity_residual=float(sol.stationarity_residual),
-                history=[float(h) for h in np.asarray(sol.history)[:int(sol.iterations) + 1]])
+    st = sol.stats
+    ours = dict(compile=comp, solve=run, status=int(sol.status), iterations=int(st["iterations"]),
+                cost_m2_s3=float(sol.cost), constraint_residual=float(st["constraint_residual"]),
+                stationarity_residual=float(st["stationarity_residual"]),
+                history=[float(h) for h in np.asarray(st["history"])[:int(st["iterations"]) + 1]])
     if not args.no_opt0:
         # diagnostic: the same function with LLVM's backend optimisation off (as the mei2010
         # CLI does for the LQ laws): how much of the compile is LLVM, and what it costs at run
@@ -517,7 +483,7 @@ def main(argv=None):
             cpus.append(time.process_time() - c0)
         per_call = statistics.median(calls)
         status = np.asarray(sols.status)
-        iters = np.asarray(sols.iterations)
+        iters = np.asarray(sols.stats["iterations"])
         res["batched"][name] = dict(
             label=label, sampler=sampler, compile=comp_b, call_s=calls, call_cpu_s=cpus,
             median_call_s=per_call,
@@ -552,7 +518,7 @@ def main(argv=None):
                    ipopt_s=ipi["wall_s"], ipopt_cpu_s=ipi["cpu_s"],
                    ipopt_status=ipi["status"],
                    ipopt_iterations=ipi["iterations"], ours_status=int(sols.status[i]),
-                   ours_iterations=int(sols.iterations[i]),
+                   ours_iterations=int(sols.stats["iterations"][i]),
                    ipopt_own_kkt=(float(kc), float(kg)))
         if ipi["success"] and ours_ok:
             row.update(compare(sols.cost[i], np.asarray(sols.node_controls[i]), ipi, di))
