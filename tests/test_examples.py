@@ -59,3 +59,14 @@ def test_sensitivity_study():
 
     fd = (cost(float(e[k]) + h) - cost(float(e[k]) - h)) / (2 * h)
     assert float(dJ_de[k]) == pytest.approx(fd, rel=1e-5)
+
+
+def test_monte_carlo_j2():
+    """4 dispersed J2 rendezvous on lgl(17), re-planned by Newton-KKT through the sweep
+    engine: every sample SUCCESS, and each record obeys Cauchy-Schwarz between its delta-v
+    and its energy cost, dv^2 <= 2 J T (equality only for a constant |u|)."""
+    result = load("monte_carlo_j2").main(n=4, points=17)
+    t = result.tables[17]
+    assert np.all(t["status"] == lpm.Status.SUCCESS)
+    assert np.all(t["delta_v"] ** 2 <= 2.0 * t["cost"] * t["duration"])
+    assert np.all(t["delta_v"] > 0.0)
