@@ -264,6 +264,19 @@ def test_long_finite_horizon_tends_to_the_care(case):
     np.testing.assert_allclose(fl.stats["K0"], case[1].stats["K0"], rtol=1e-9, atol=0)
 
 
+def test_badly_balanced_weights_are_swept():
+    """Q = I and R = I in SI (|Q^| ~ 1e12 |G^| in the solver's units) without balancing put
+    |H h| beyond the range of expm (NaN); balanced, the sweep's P(0) with S_T = 0 over one
+    period is the CARE's (closed-loop rates ~900 n: the horizon's effect is exp(-5000)).
+    Measured 3e-12 from scipy's P: the rounding of 512 steps with h |eig(H)| ~ 11."""
+    problem = jiang_problem("weight").replace(Q=np.eye(6), R=np.eye(3))
+    sol = lpm.solve(problem)
+    P = sl.solve_continuous_are(np.asarray(hcw_matrix(jiang2011.mean_motion())), B_HCW,
+                                np.eye(6), np.eye(3))
+    np.testing.assert_allclose(sol.stats["P0"], P, rtol=0, atol=1e-9 * np.abs(P).max())
+    np.testing.assert_allclose(sol.costates(0.0), P @ problem.x0, rtol=1e-9)
+
+
 # ---------------------------------------------- the LQR family through jaxlpm.solve (issue 18)
 @pytest.fixture(scope="module")
 def hard():

@@ -33,7 +33,10 @@ exponential growth of one long propagation. The terminal pair is [X; Y](T) = [I;
 costate obey the same Hamiltonian system, so [x; lambda] <- expm(H h) [x_k; P_k x_k] steps the
 closed loop exactly; between the nodes the solution is the same flow from the node before
 (`jaxlpm.solution.HamiltonianFlow`), u = -R^-1 B^T lambda. Delta-v and cost integrals are
-Gauss-Legendre sums on every step. Each step amplifies rounding by at most exp(h |eig(H)|):
+Gauss-Legendre sums on every step. The sweep balances the costates (lambda^ = alpha lambda~,
+alpha = sqrt(|Q^|_F / |G^|_F), `balancing`, as the CARE does) so that H's blocks have equal
+norms: weights far from balance (Q = I and R = I in SI: |Q^| ~ 1e12) would otherwise put
+|H h| beyond the range of expm. Each step amplifies rounding by at most exp(h |eig(H)|):
 keep h |eig(H)| below ~5 (the default 512 steps over 6 periods is h = 0.074 rad: closed-loop
 rates up to ~60 n).
 
@@ -60,7 +63,7 @@ from ..problems.lqr import LQRTransfer
 from ..solution import HamiltonianFlow, Solution, zero_invalid
 from ..status import Status
 from .family import FamilySolver
-from .riccati import CareProblem, CareSolution, care
+from .riccati import CareProblem, CareSolution, balancing, care
 
 STEPS = 512               # default sweep steps over the horizon
 
@@ -139,11 +142,14 @@ def hcw_lqr(n, Q, R) -> CareSolution:
 
 
 def _sweep(n, Q, R, x0, duration, S_T, hard: bool, steps: int):
-    """The finite-horizon sweep of the module docstring, in nondimensional variables.
-    Returns (the `HamiltonianFlow`, cost J, P(0), K(0)), J, P and K in SI."""
+    """The finite-horizon sweep of the module docstring, in nondimensional variables with
+    balanced costates (lambda^ = alpha lambda~, P^ = alpha P~, `balancing`). Returns (the
+    `HamiltonianFlow`, cost J, P(0), K(0)), J, P and K in SI."""
     A, B, Qh, Rh, s, c = _nondimensional(n, Q, R)
     Gain = jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(Rh), B.T)     # R^-1 B^T
-    H = jnp.block([[A, -B @ Gain], [-Qh, -A.T]])
+    alpha = balancing(Qh, B @ Gain)
+    Gain = alpha * Gain                                 # u^ = -Gain lambda~
+    H = jnp.block([[A, -B @ Gain], [-Qh / alpha, -A.T]])
     m = A.shape[0]
     eye = jnp.eye(m, dtype=A.dtype)
     h = n * duration / steps
@@ -154,8 +160,9 @@ def _sweep(n, Q, R, x0, duration, S_T, hard: bool, steps: int):
         P = jnp.linalg.solve(X.T, Y.T).T                 # Y X^-1
         return 0.5 * (P + P.T)
 
-    S_hat = (n / c) * s[:, None] * S_T * s[None, :]
-    XY_T = jnp.concatenate([0.0 * eye, eye]) if hard else jnp.concatenate([eye, S_hat])
+    S_hat = (n / c) * s[:, None] * S_T * s[None, :]    # S^; S~ = S^ / alpha
+    XY_T = (jnp.concatenate([0.0 * eye, eye]) if hard
+            else jnp.concatenate([eye, S_hat / alpha]))
 
     def back_step(XY, _):
         P = riccati(XY)
@@ -168,11 +175,11 @@ def _sweep(n, Q, R, x0, duration, S_T, hard: bool, steps: int):
         z0 = jnp.concatenate([x, P @ x])
         return (fwd @ z0)[:m], z0
 
-    _, Z = jax.lax.scan(fwd_step, x0 / s, Ps)           # Z[k] = [x_k; lambda_k]
+    _, Z = jax.lax.scan(fwd_step, x0 / s, Ps)           # Z[k] = [x_k; lambda~_k]
     flow = HamiltonianFlow(
         hamiltonian=H, gain=Gain, nodes=jnp.concatenate([Z, (fwd @ Z[-1])[None]]),
-        duration=duration, rate=n, state_unit=s, costate_unit=(c / n) / s, control_unit=n**2,
-        steps=steps)
+        duration=duration, rate=n, state_unit=s, costate_unit=alpha * (c / n) / s,
+        control_unit=n**2, steps=steps)
 
     w, z = flow.quadrature()
     xq, uq = z[..., :m], -jnp.einsum("ij,kgj->kgi", Gain, z[..., m:])
@@ -180,7 +187,7 @@ def _sweep(n, Q, R, x0, duration, S_T, hard: bool, steps: int):
                                  + jnp.einsum("kgi,ij,kgj->kg", uq, Rh, uq)))
     xT = flow.nodes[-1, :m]
     terminal = 0.0 if hard else 0.5 * xT @ S_hat @ xT
-    P0, K0 = _si_matrices(Ps[0], Gain @ Ps[0], n, s, c)
+    P0, K0 = _si_matrices(alpha * Ps[0], Gain @ Ps[0], n, s, c)
     return flow, (c / n) * (running + terminal), P0, K0
 
 
@@ -225,7 +232,10 @@ def check_grid(grid, method):
 def run(problem, grid, method, options) -> Solution:
     """Solve an `LQRTransfer` by the Riccati sweep over `grid` uniform steps (module
     docstring): jit-compiled once per (terminal kind, steps); vmap- and grad-able. Traced bad
-    input gives status INVALID_INPUT and zeroed outputs."""
+    input gives status INVALID_INPUT and zeroed outputs. The solution is exact for any number
+    of steps, but rounding grows by up to exp(h |eig(H)|) a step and the cost's quadrature
+    needs the steps to resolve the closed loop: keep h |eig(H)| below ~5 (h = duration / steps
+    times the fastest closed-loop rate; Q = I, R = I in SI over one period wants ~4096)."""
     return _compiled(problem, steps=int(grid))
 
 

@@ -11,8 +11,9 @@ Method. Jiang 2011 (after Laub 1979) takes P from the ordered real Schur form of
 Hamiltonian H = [[A, -G], [-Q, -A^T]]. JAX has no ordered Schur decomposition on every backend,
 so the stable invariant subspace of H is found from the matrix sign function instead (Roberts
 1971; Byers 1987; Gardiner & Laub 1986), which needs only LU and QR factorisations:
-  1. balance P = alpha P~, alpha = sqrt(|Q|_F / |G|_F): the blocks -alpha G and -Q / alpha of
-     the balanced Hamiltonian have equal norms (the relative residual is unchanged by this);
+  1. balance P = alpha P~, alpha = sqrt(|Q|_F / |G|_F) (`balancing`): the blocks -alpha G and
+     -Q / alpha of the balanced Hamiltonian have equal norms (the relative residual is
+     unchanged by this);
   2. Newton's iteration for sign(H) with determinant scaling,
      Z <- (c Z + Z^-1 / c) / 2,  c = |det Z|^(-1/2n), in a lax.while_loop (static maximum),
      with the Hamiltonian structure (J Z symmetric) restored at every step;
@@ -180,6 +181,16 @@ def _lyapunov_solve(Acl, C):
     return (jnp.asarray(D) @ x).T.reshape(C.shape)
 
 
+def balancing(Q, G):
+    """alpha = sqrt(|Q|_F / |G|_F) (1 where either is 0): with P = alpha P~ (costates
+    lambda = alpha lambda~) the blocks -alpha G and -Q / alpha of the Hamiltonian
+    [[A, -G], [-Q, -A^T]] have equal norms. A choice of scaling that the answer does not
+    depend on: not differentiated."""
+    nq, ng = jnp.linalg.norm(Q), jnp.linalg.norm(G)
+    alpha = jnp.where((nq > 0) & (ng > 0), jnp.sqrt(nq / jnp.where(ng > 0, ng, 1.0)), 1.0)
+    return jax.lax.stop_gradient(alpha)
+
+
 def _stabilising_solution(A, G, Q):
     """Steps 1-4 of the module docstring for (A, G, Q): returns (P, iterations, rcond, ok).
 
@@ -192,8 +203,7 @@ def _stabilising_solution(A, G, Q):
     not mistaken for stable ones.
     """
     n = A.shape[0]
-    nq, ng = jnp.linalg.norm(Q), jnp.linalg.norm(G)
-    alpha = jnp.where((nq > 0) & (ng > 0), jnp.sqrt(nq / jnp.where(ng > 0, ng, 1.0)), 1.0)
+    alpha = balancing(Q, G)
     Gt, Qt = alpha * G, Q / alpha
     W, k, converged = _sign_hamiltonian(jnp.block([[A, -Gt], [-Qt, -A.T]]))
     eye = jnp.eye(n, dtype=A.dtype)
