@@ -129,6 +129,7 @@ def hcw_lqr(n, Q, R) -> CareSolution:
     are those of the nondimensional CARE the solver saw (module docstring). vmap over
     (n, Q, R) and differentiable. Concrete inputs are validated, and scaled by small compiled
     functions around the compiled `care` (whose one compilation per shape serves both).
+    The design alone: `jaxlpm.solve(LQRTransfer(..., terminal="infinite"))` also flies it.
     """
     require_x64()
     if is_concrete(n, Q, R):
