@@ -6,7 +6,7 @@ start of the transfer, angles in rad. float64 only: enable it with
 jax.config.update("jax_enable_x64", True).
 
 A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTransfer`,
-`MinimumTimeTransfer`, `FuelOptimalTransfer`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points;
+`MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points;
 `segmented_lgr`), `solve(problem, grid)` -> `Solution`, `verify.fly(solution)`, `batch`
 (sweeps, Monte Carlo), `lambert`, `Status`.
 """
@@ -29,18 +29,19 @@ from .solution import Solution, SolveError  # noqa: E402
 from .solvers import solve  # noqa: E402
 from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # noqa: E402
                                    refine_fuel_optimal, switching_function, switching_times)
-from .solvers.lqr import Flight, finite_horizon_lqr, hcw_lqr, infinite_horizon_flight  # noqa: E402
+from .problems.lqr import LQRTransfer  # noqa: E402
+from .solvers.lqr import hcw_lqr  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
 from . import batch, nlp, verify  # noqa: E402
 
 __version__ = "0.2.0"
 
 __all__ = [
-    "ALOptions", "CareSolution", "EnergyOptimalTransfer", "Flight", "FuelOptimalTransfer",
+    "ALOptions", "CareSolution", "EnergyOptimalTransfer", "FuelOptimalTransfer",
     "Grid", "HomotopyOptions", "KeplerOrbit", "LambertSolution", "MinimumTimeTransfer",
     "NewtonOptions", "OptimalControlProblem", "SegmentedMesh", "Solution", "SolveError",
     "Status", "__version__", "aligned_breaks", "batch", "burn_arcs", "care", "constants", "describe",
-    "finite_horizon_lqr", "hcw_lqr", "indirect_fuel_optimal", "infinite_horizon_flight",
+    "hcw_lqr", "indirect_fuel_optimal", "LQRTransfer",
     "lambert", "lg", "lgl", "lgr", "make_grid", "nlp", "primer", "refine_fuel_optimal",
     "segmented_lgr", "solve", "switching_function", "switching_times", "uniform_breaks",
     "verify",

@@ -1,6 +1,8 @@
-"""The CARE solver (against scipy, residual, gradients, statuses, batching) and the HCW
+"""The CARE solver (against scipy, residual, gradients, statuses, batching), the HCW
 regulators built on it (the closed loop against its eigendecomposition, the Riccati sweep
-against the KKT law and the CARE), and `jaxlpm reproduce jiang2011`."""
+against the KKT law and the CARE), the LQR family's acceptance through `jaxlpm.solve` (issue
+18: flown to the target, delta-v by quadrature, costates as the cost's gradient, statuses and
+SolveError), and `jaxlpm reproduce jiang2011`."""
 
 import json
 
@@ -13,11 +15,11 @@ from scipy.integrate import quad
 
 jax.config.update("jax_enable_x64", True)
 
-from jaxlpm import Status  # noqa: E402
+import jaxlpm as lpm  # noqa: E402
+from jaxlpm import LQRTransfer, Status, hcw_lqr  # noqa: E402
 from jaxlpm.cases import jiang2011  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402
 from jaxlpm.solvers import lqr as lqr_module  # noqa: E402
-from jaxlpm.solvers.lqr import finite_horizon_lqr, hcw_lqr  # noqa: E402
 from jaxlpm.solvers.riccati import care  # noqa: E402
 
 A_HCW = np.asarray(hcw_matrix(1.0))                     # nondimensional HCW (time 1/n)
@@ -180,14 +182,22 @@ def test_bad_input_raises(change, match):
 # ------------------------------------------------------------------ HCW regulators (SI units)
 @pytest.fixture(scope="module")
 def case():
-    """The jiang2011 case computed once: (ts, flight, link data, computed JSON dict)."""
+    """The jiang2011 case computed once: (ts, Solution, link data, computed JSON dict)."""
     return jiang2011.compute(log=lambda *_: None)
 
 
+def jiang_problem(terminal="hard", revolutions=1.0):
+    """The case's chief, x0, Q and R (Bryson's rule) over `revolutions` chief periods."""
+    n, (Q, R) = jiang2011.mean_motion(), jiang2011.weights()
+    return LQRTransfer(jiang2011.chief(), jiang2011.initial_state(),
+                       revolutions * 2.0 * np.pi / n, Q, R, terminal=terminal)
+
+
 def test_infinite_horizon_design_and_flight(case):
-    ts, flight, _, computed = case
+    ts, sol, _, computed = case
     n, (Q, R), x0 = jiang2011.mean_motion(), jiang2011.weights(), jiang2011.initial_state()
     lqr = hcw_lqr(n, Q, R)
+    np.testing.assert_array_equal(sol.stats["P0"], lqr.P)     # the design the sweep flies
     A = np.asarray(hcw_matrix(n))
     # In SI the data span 1e-12 .. 1e6; scipy balances them, we nondimensionalise (time by 1/n):
     # measured 7e-12 apart.
@@ -204,11 +214,14 @@ def test_infinite_horizon_design_and_flight(case):
     lam, V = np.linalg.eig(Acl)
     c0 = np.linalg.solve(V, x0)
     exact = (np.exp(np.outer(ts, lam)) * c0) @ V.T
-    np.testing.assert_allclose(flight.states, exact.real, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(flight.controls, -exact.real @ np.asarray(lqr.K).T, rtol=0,
+    np.testing.assert_allclose(sol.states(ts), exact.real, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(sol.controls(ts), -exact.real @ np.asarray(lqr.K).T, rtol=0,
                                atol=1e-15)
+    # costates lambda = P x of the stationary law (dJ*/dx, s/m and s^2/m here): the same flow
+    np.testing.assert_allclose(sol.costates(ts), exact.real @ ref, rtol=0,
+                               atol=1e-9 * np.abs(ref @ x0).max())
     # with terminal weight P the cost to T plus the cost to come is 1/2 x0^T P x0 exactly
-    assert float(flight.cost) == pytest.approx(0.5 * x0 @ ref @ x0, rel=1e-9)
+    assert float(sol.cost) == pytest.approx(0.5 * x0 @ ref @ x0, rel=1e-9)
     # delta-v against adaptive quadrature of |u(t)| (split per period)
     KV = np.asarray(lqr.K) @ V
     T = ts[-1]
@@ -217,12 +230,17 @@ def test_infinite_horizon_design_and_flight(case):
              for a, b in zip(np.linspace(0, T, 7)[:-1], np.linspace(0, T, 7)[1:]))
     assert computed["dv_total"] == pytest.approx(dv, rel=1e-8)
     assert np.linalg.norm(computed["final_state"][:3]) < 1e-6       # m, after 6 periods
+    # flown open loop on HCW by verify.fly: the integrator (rtol 1e-12 on states scaled by
+    # |r0| = 5.1 km) follows the plan to 3.2e-7 m over 6 periods and ends 2.2e-8 m from the
+    # origin (measured)
+    assert computed["flown_plan_error"][0] < 1e-5
+    assert np.linalg.norm(computed["flown_final_state"][:3]) < 1e-5
 
 
 def test_finite_horizon_hard_limit_is_the_kkt_law(case):
     link = case[3]["kkt_link"]
-    # Same continuous problem: the sweep is exact, the KKT law (N = 64) spectrally accurate;
-    # measured 1e-12 in J and 1.4e-9 in the nodal controls.
+    # Same continuous problem: the sweep is exact, the KKT law (N = 32) spectrally accurate;
+    # measured 1e-12 in J and 1.5e-10 in the nodal controls.
     assert link["J_rel_diff"] < 1e-9
     assert link["control_rel_diff_at_nodes"] < 1e-7
     assert link["state_rel_diff_at_nodes"] < 1e-10
@@ -239,31 +257,139 @@ def test_finite_horizon_hard_limit_is_the_kkt_law(case):
 def test_long_finite_horizon_tends_to_the_care(case):
     """With S_T = 0 the Riccati sweep's P(0) over 6 periods is the CARE's P up to
     exp(-2 * 0.56 * 12 pi) ~ 1e-18: the finite- and infinite-horizon laws meet."""
-    ts = case[0]
-    n, (Q, R), x0 = jiang2011.mean_motion(), jiang2011.weights(), jiang2011.initial_state()
-    fl = finite_horizon_lqr(n, Q, R, x0, ts[-1], ts, terminal_weight=np.zeros((6, 6)))
-    assert int(fl.status) == Status.SUCCESS
-    assert float(fl.predicted_cost) == pytest.approx(case[3]["cost_infinite_horizon"], rel=1e-9)
-    assert float(fl.cost) == pytest.approx(float(fl.predicted_cost), rel=1e-9)
+    fl = lpm.solve(jiang_problem("weight", jiang2011.REVOLUTIONS))
+    assert float(fl.stats["predicted_cost"]) == pytest.approx(
+        case[3]["cost_infinite_horizon"], rel=1e-9)
+    assert float(fl.cost) == pytest.approx(float(fl.stats["predicted_cost"]), rel=1e-9)
+    np.testing.assert_allclose(fl.stats["K0"], case[1].stats["K0"], rtol=1e-9, atol=0)
 
 
-def test_traced_invalid_regulator_inputs_give_status():
-    """The bodies that traced (jit/vmap) calls run, without the Python-boundary checks: bad
-    values give INVALID_INPUT and zeros, not NaNs."""
-    n, (Q, R), x0 = jiang2011.mean_motion(), jiang2011.weights(), jiang2011.initial_state()
-    sol = lqr_module._hcw_lqr(jnp.float64(-n), jnp.asarray(Q), jnp.asarray(R))
-    assert int(sol.status) == Status.INVALID_INPUT
-    assert all(np.all(np.isfinite(np.asarray(v))) for v in jax.tree_util.tree_leaves(sol))
-    ts = jnp.linspace(0.0, 100.0, jiang2011.N_OUT)
-    fl = lqr_module._flight_jit(jnp.float64(n), jnp.asarray(Q), jnp.asarray(R), jnp.asarray(x0),
-                                jnp.float64(-1.0), ts, jnp.zeros((6, 6)), jnp.asarray(False),
-                                steps=lqr_module.STEPS)
-    assert int(fl.status) == Status.INVALID_INPUT
-    assert all(np.all(np.isfinite(np.asarray(v))) for v in jax.tree_util.tree_leaves(fl))
+def test_badly_balanced_weights_are_swept():
+    """Q = I and R = I in SI (|Q^| ~ 1e12 |G^| in the solver's units) without balancing put
+    |H h| beyond the range of expm (NaN); balanced, the sweep's P(0) with S_T = 0 over one
+    period is the CARE's (closed-loop rates ~900 n: the horizon's effect is exp(-5000)).
+    Measured 3e-12 from scipy's P: the rounding of 512 steps with h |eig(H)| ~ 11."""
+    problem = jiang_problem("weight").replace(Q=np.eye(6), R=np.eye(3))
+    sol = lpm.solve(problem)
+    P = sl.solve_continuous_are(np.asarray(hcw_matrix(jiang2011.mean_motion())), B_HCW,
+                                np.eye(6), np.eye(3))
+    np.testing.assert_allclose(sol.stats["P0"], P, rtol=0, atol=1e-9 * np.abs(P).max())
+    np.testing.assert_allclose(sol.costates(0.0), P @ problem.x0, rtol=1e-9)
+
+
+# ---------------------------------------------- the LQR family through jaxlpm.solve (issue 18)
+@pytest.fixture(scope="module")
+def hard():
+    """The case's regulator with the hard terminal constraint x(T) = 0 over one period, on
+    the default 512 sweep steps (the compiled sweep and flight the case uses)."""
+    problem = jiang_problem("hard")
+    return problem, lpm.solve(problem)
+
+
+def test_hard_terminal_solution_flies_to_the_target(hard):
+    problem, sol = hard
+    assert isinstance(sol, lpm.Solution) and sol.method == "riccati" and sol.frame == "LVLH"
+    assert sol.grid == lqr_module.STEPS and sol.times.shape == (lqr_module.STEPS + 1,)
+    T = float(sol.duration)
+    # the exact flow ends at the origin to rounding (|x0| = 5.1 km: measured 1e-17 m), and
+    # evaluating between the nodes reproduces the nodes (the flow from the node before:
+    # measured 5e-13 m)
+    np.testing.assert_allclose(sol.states(0.0), problem.x0, rtol=0, atol=1e-12)
+    assert np.linalg.norm(sol.states(T)[:3]) < 1e-9
+    np.testing.assert_allclose(sol.states(sol.times), sol.node_states, rtol=0, atol=1e-9)
+    flight = lpm.verify.fly(sol)
+    assert bool(flight.success)
+    # open loop on HCW: the integrator's error (rtol = atol = 1e-12 on states scaled by
+    # |r0| = 5.1 km, over one period) is the whole miss: measured 3.9e-9 m, 1.7e-12 m/s;
+    # two decades of margin. Between its steps the flight is saved by dense output, less
+    # accurate: the largest |flown - planned| is 4.3e-7 m (measured)
+    err = np.asarray(flight.terminal_error)
+    assert err[0] < 1e-6 and err[1] < 1e-9, err
+    assert np.asarray(flight.plan_error)[0] < 1e-5
+
+
+def test_delta_v_is_the_integral_of_the_control(hard):
+    """delta_v (Gauss-Legendre, 8 points on each of 512 steps) against scipy's adaptive quad
+    of |controls(t)|: u(t) is a smooth sum of exponentials here, both are converged to
+    ~1e-12; 1e-9 relative asserted."""
+    _, sol = hard
+    speed = jax.jit(lambda t: jnp.linalg.norm(sol.controls(t)))
+    reference = quad(lambda t: float(speed(t)), 0.0, float(sol.duration), epsabs=0.0,
+                     epsrel=1e-11, limit=500)[0]
+    assert float(sol.delta_v) == pytest.approx(reference, rel=1e-9)
+
+
+def test_costates_are_the_cost_gradient(hard):
+    """costates(0) = P(0) x0 = dJ*/dx0 (SI: here J is in s, so s/m and s^2/m) against
+    jax.grad of `cost` (the Gauss-Legendre sum of the flown cost, differentiated through the
+    sweep): both are exact to rounding, measured 1e-13 relative; 1e-9 asserted."""
+    problem, sol = hard
+    lam0 = np.asarray(sol.costates(0.0))
+    np.testing.assert_allclose(lam0, sol.stats["P0"] @ problem.x0, rtol=1e-12)
+    assert float(sol.stats["predicted_cost"]) == pytest.approx(float(sol.cost), rel=1e-12)
+
+    grad = np.asarray(jax.grad(
+        lambda x: lpm.solve(problem.replace(x0=x), throw=False).cost)(jnp.asarray(problem.x0)))
+    np.testing.assert_allclose(lam0, grad, rtol=0, atol=1e-9 * np.abs(grad).max())
+
+
+def test_undetectable_weights_raise_or_return_their_status(case):
+    """The infinite horizon needs (Q, A) detectable: Q without the z axis leaves the
+    out-of-plane oscillator (eigenvalues +-i n) unweighted, so no stabilising P exists."""
+    Q = np.array(jiang2011.weights()[0])
+    Q[2, 2] = Q[5, 5] = 0.0
+    problem = jiang_problem("infinite").replace(Q=Q)
+    with pytest.raises(lpm.SolveError) as raised:
+        lpm.solve(problem)
+    assert raised.value.status == Status.NOT_DETECTABLE and "NOT_DETECTABLE" in str(raised.value)
+    sol = lpm.solve(problem, throw=False)
+    assert int(sol.status) == Status.NOT_DETECTABLE and not bool(sol.success)
+    assert float(sol.cost) == 0.0 and np.all(np.asarray(sol.stats["K0"]) == 0.0)
+    # the hard-terminal transfer with the same weights is well posed (HCW is controllable)
+    assert bool(lpm.solve(problem.replace(terminal="hard"), throw=False).success)
+
+
+def test_traced_invalid_regulator_inputs_give_status(hard):
+    """Traced bad values give INVALID_INPUT and zeroed, finite outputs per member; concrete
+    ones raise ValueError naming the field."""
+    problem, sol = hard
+    n, (Q, R) = jiang2011.mean_motion(), jiang2011.weights()
+    design = lqr_module._hcw_lqr(jnp.float64(-n), jnp.asarray(Q), jnp.asarray(R))
+    assert int(design.status) == Status.INVALID_INPUT
+    assert all(np.all(np.isfinite(np.asarray(v))) for v in jax.tree_util.tree_leaves(design))
+    durations = jnp.array([float(problem.duration), -1.0])
+    sols = jax.vmap(lambda T: lpm.solve(problem.replace(duration=T)))(durations)
+    assert np.asarray(sols.status).tolist() == [Status.SUCCESS, Status.INVALID_INPUT]
+    assert all(np.all(np.isfinite(np.asarray(v))) for v in jax.tree_util.tree_leaves(sols))
+    assert float(sols.cost[1]) == 0.0 and float(sols.delta_v[1]) == 0.0
+    assert float(sols.cost[0]) == pytest.approx(float(sol.cost), rel=1e-12)
+    assert float(sols.delta_v[0]) == pytest.approx(float(sol.delta_v), rel=1e-12)
     with pytest.raises(ValueError, match="mean motion"):
         hcw_lqr(-n, Q, R)
-    with pytest.raises(ValueError, match="ts must"):
-        finite_horizon_lqr(n, Q, R, x0, 100.0, np.array([0.0, 200.0]))
+
+
+@pytest.mark.parametrize("change, match", [
+    (dict(duration=-1.0), "duration must be a positive"),
+    (dict(R=-np.eye(3)), "R must be positive definite"),
+    (dict(Q=np.triu(np.ones((6, 6)))), "Q must be symmetric"),
+    (dict(x0=np.full(6, np.nan)), "x0 must be finite"),
+    (dict(orbit=lpm.KeplerOrbit(a=7e6, e=0.1)), "orbit.e must be 0"),
+    (dict(terminal_weight=np.eye(6)), "terminal_weight must be zero for terminal='hard'"),
+    (dict(terminal_weight=-np.eye(6), terminal="weight"),
+     "terminal_weight must be positive semidefinite"),
+    (dict(terminal="soft"), "terminal must be one of"),
+    (dict(Q=np.eye(5)), r"Q must have shape \(6, 6\)"),
+])
+def test_bad_transfer_raises(change, match):
+    with pytest.raises(ValueError, match=match):
+        lpm.solve(jiang_problem().replace(**change))
+
+
+def test_grid_is_the_number_of_sweep_steps():
+    with pytest.raises(ValueError, match="grid must be the number of uniform Riccati sweep"):
+        lpm.solve(jiang_problem(), lpm.lgl(9))
+    with pytest.raises(ValueError, match="takes no options"):
+        lpm.solve(jiang_problem(), options=lpm.NewtonOptions())
 
 
 def test_reproduce_jiang2011(tmp_path, case):

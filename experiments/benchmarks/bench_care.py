@@ -4,7 +4,9 @@ scipy.linalg.solve_continuous_are (the field's standard: ordered QZ of the exten
 Case (jiang2011, docs/jiang2011.md): HCW about a circular chief at 343 km altitude; 10^4 (Q, R)
 weightings around Bryson's rule, Q = diag(q_i / s_i^2) with s = (1 km x 3, 1 m/s x 3) and
 R = diag(r_j) / (1 mm/s^2)^2, the factors q_i, r_j log-uniform in [1e-2, 1e2] (seed 0). SI
-units in both solvers (`hcw_lqr` nondimensionalises inside; scipy balances).
+units in both solvers (`hcw_lqr` nondimensionalises inside; scipy balances). `jaxlpm.hcw_lqr`
+is the design alone (a `CareSolution`); `jaxlpm.solve(LQRTransfer(..., terminal="infinite"))`
+runs the same CARE and then flies the law (not timed here).
 
 Measured in one run:
   1. jax.jit(jax.vmap(hcw_lqr, in_axes=(None, 0, 0))) on the 10^4 weightings in one call: cold
@@ -12,8 +14,9 @@ Measured in one run:
      steady-state time per call (median of repeats, block_until_ready), statuses;
   2. the same function on 10^3 weightings (batch-size scaling), and the 10^4 in one call as
      lax.map over 10 vmapped chunks of 10^3;
-  3. one problem at a time through `hcw_lqr` (host validation, eager scaling around the
-     compiled `care`: the latency a script sees);
+  3. one problem at a time through `hcw_lqr` (host validation by the compiled weight checks
+     of `jaxlpm.problems.lqr.weight_rules`, scaling around the compiled `care`: the latency a
+     script sees);
   4. scipy.linalg.solve_continuous_are in a Python loop over the first --n-peer weightings
      (time per problem, median of 3 passes), plus K = R^-1 B^T P (scipy.linalg.solve) as
      both solvers return the gain;
@@ -33,7 +36,7 @@ import time
 
 # jaxlpm sets its CPU runtime at import (one OpenBLAS thread, XLA's sequential CPU scheduler):
 # import it before numpy/scipy so the peer runs under the same settings.
-import jaxlpm  # noqa: F401, E402
+from jaxlpm import hcw_lqr  # noqa: E402
 
 import jax  # noqa: E402
 
@@ -47,7 +50,6 @@ import scipy.linalg as sl  # noqa: E402
 
 from jaxlpm.cases import jiang2011  # noqa: E402
 from jaxlpm.dynamics import hcw_matrix  # noqa: E402
-from jaxlpm.solvers.lqr import hcw_lqr  # noqa: E402
 from common import cold_compile, machine_info, timed  # noqa: E402  (this directory)
 
 BATCH = 10_000

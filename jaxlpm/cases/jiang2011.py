@@ -14,9 +14,14 @@ method: no orbit, weights, initial state or results survive, so the case is ours
 - weights by Bryson's rule: Q = diag(1/(1 km)^2 x 3, 1/(1 m/s)^2 x 3), R = I/(1 mm/s^2)^2;
 - flown for 6 chief periods (the paper's finite-time evaluation of the cost).
 
+Solved through the public API: `solve(LQRTransfer(..., terminal="infinite"))` (the CARE's
+stationary law flown by the exact Riccati sweep), and the solution flown independently by
+`verify.fly` on the linear (HCW) model.
+
 Cross-check with the pseudospectral laws: with Q = 0, R = I the finite-horizon regulator with
-the hard terminal constraint is Mei's energy-optimal transfer (the KKT law, `method="kkt"`, with
-e = 0); the same chief and initial state, to the origin in one period, N = 32.
+the hard terminal constraint (`terminal="hard"`) is Mei's energy-optimal transfer (the KKT law,
+`method="kkt"`, with e = 0); the same chief and initial state, to the origin in one period,
+N = 32 (33 LGL points); `terminal="weight"` with S_T = sigma I (solver's units) approaches it.
 """
 
 import functools
@@ -30,9 +35,9 @@ from ..collocation import lgl
 from ..constants import MU_EARTH, R_EARTH
 from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
-from ..problems import EnergyOptimalTransfer
+from ..problems import EnergyOptimalTransfer, LQRTransfer
 from ..solvers import solve
-from ..solvers.lqr import finite_horizon_lqr, infinite_horizon_flight
+from ..verify import fly
 
 NAME = "jiang2011"
 TITLE = "Jiang, Li, Zhang & Tan 2011: continuous-thrust LQR rendezvous by the Riccati equation"
@@ -60,6 +65,11 @@ def mean_motion() -> float:
     return float(np.sqrt(MU_EARTH / A_CHIEF**3))
 
 
+def chief() -> KeplerOrbit:
+    """The chief's circular orbit (t = 0 at its epoch)."""
+    return KeplerOrbit(a=jnp.asarray(A_CHIEF), e=jnp.asarray(0.0))
+
+
 def weights():
     """(Q, R) of the case, SI: Bryson's rule with 1 km, 1 m/s and 1 mm/s^2."""
     Q = np.diag([POSITION_SCALE**-2] * 3 + [VELOCITY_SCALE**-2] * 3)
@@ -82,31 +92,30 @@ def kkt_link(log=print):
     n = mean_motion()
     T = 2.0 * np.pi / n
     x0 = initial_state()
-    orbit = KeplerOrbit(a=jnp.asarray(A_CHIEF), e=jnp.asarray(0.0))
+    orbit = chief()
     prob = EnergyOptimalTransfer(orbit, jnp.asarray(x0), jnp.zeros(6), jnp.asarray(T))
     t = time.perf_counter()
     grid = lgl(N_KKT + 1)
     # one KKT solve: LLVM's backend optimisation (most of its compile time) is skipped
     kkt = jax.jit(functools.partial(solve, method="kkt", throw=False)).lower(
         prob, grid).compile(compiler_options=_QUICK)(prob, grid)
+    if not bool(kkt.success):
+        raise RuntimeError(f"the KKT law failed: {kkt.message}")
     nodes = np.asarray(kkt.times)
-    # output at the nodes, then a uniform sampling for the figure: N_OUT times in all, so the
-    # compiled sweep of the 6-period flight serves these too
-    ts = np.concatenate([nodes, np.linspace(0.0, T, N_OUT - nodes.size)])
     Q0, R1 = np.zeros((6, 6)), np.eye(3)
     # S_T = sigma I in the solver's units: (c / n) diag(1, 1, 1, 1/n^2, 1/n^2, 1/n^2), c = n^4
     unit = n**3 * np.diag([1.0, 1.0, 1.0, n**-2, n**-2, n**-2])
-    hard, *soft = [finite_horizon_lqr(n, Q0, R1, x0, T, ts, terminal_weight=w)
-                   for w in [None] + [s * unit for s in SIGMAS]]
-    bad = [f for f in [kkt, hard] + soft if int(f.status) != 0]
-    if bad:
-        raise RuntimeError(f"cross-check solves failed: {[int(f.status) for f in bad]}")
+    hard = solve(LQRTransfer(orbit, x0, T, Q0, R1, terminal="hard"))
+    soft = [solve(LQRTransfer(orbit, x0, T, Q0, R1, s * unit, terminal="weight"))
+            for s in SIGMAS]
     log(f"KKT law (N = {N_KKT}) and {1 + len(SIGMAS)} finite-horizon sweeps in "
         f"{time.perf_counter() - t:.1f} s")
     J = float(kkt.cost)
-    k = nodes.size
-    at_nodes = lambda f: (f.controls[:k], f.states[:k])
-    (u_hard, x_hard), soft_u = at_nodes(hard), [at_nodes(f)[0] for f in soft]
+    u_hard, x_hard = hard.controls(nodes), hard.states(nodes)
+    soft_u = [f.controls(nodes) for f in soft]
+    miss = lambda f: [float(np.linalg.norm(f.node_states[-1, :3])),
+                      float(np.linalg.norm(f.node_states[-1, 3:]))]
+    ts = np.linspace(0.0, T, N_OUT - nodes.size)          # for the figure
     return {
         "problem": "HCW (e = 0), same chief and x0, to the origin at rest in one period "
                    f"({T:.3f} s); Q = 0, R = I; J = 1/2 int |u|^2 dt (m^2/s^3)",
@@ -116,56 +125,63 @@ def kkt_link(log=print):
         "J_rel_diff": abs(float(hard.cost) - J) / J,
         "control_rel_diff_at_nodes": _rel(u_hard, kkt.node_controls),
         "state_rel_diff_at_nodes": _rel(x_hard, kkt.node_states),
-        "lq_hard_terminal_miss": [float(np.linalg.norm(hard.final_state[:3])),
-                                  float(np.linalg.norm(hard.final_state[3:]))],
+        "lq_hard_terminal_miss": miss(hard),
         "terminal_weight": [
-            {"sigma": s, "J": float(f.cost),
-             "terminal_miss": [float(np.linalg.norm(f.final_state[:3])),
-                               float(np.linalg.norm(f.final_state[3:]))],
+            {"sigma": s, "J": float(f.cost), "terminal_miss": miss(f),
              "control_rel_diff_vs_kkt": _rel(u, kkt.node_controls)}
             for s, f, u in zip(SIGMAS, soft, soft_u)],
         "sigma_units": "S_T = sigma (n^3 diag(1, 1, 1, 1/n^2, 1/n^2, 1/n^2)) in SI, i.e. "
                        "sigma I in the solver's units (time 1/n, lengths m, R = I)",
-    }, (ts[k:], kkt, hard.controls[k:])
+    }, (ts, kkt, hard.controls(ts))
 
 
 def compute(log=print):
-    """Design the regulator, fly it for 6 periods, cross-check with the KKT law."""
+    """Design the regulator, fly it for 6 periods, cross-check with the KKT law. Returns
+    (ts, the `Solution`, the KKT link's figure data, the JSON-ready dict)."""
     n = mean_motion()
     Q, R = weights()
     x0 = initial_state()
     T = REVOLUTIONS * 2.0 * np.pi / n
     ts = np.linspace(0.0, T, N_OUT)
     t = time.perf_counter()
-    lqr, flight = infinite_horizon_flight(n, Q, R, x0, T, ts)
-    if int(flight.status) != 0:
-        raise RuntimeError(f"LQR design or flight failed: {lqr.message}")
-    log(f"CARE ({int(lqr.iterations)} sign iterations) and the 6-period flight in "
+    sol = solve(LQRTransfer(chief(), x0, T, Q, R, terminal="infinite"))
+    stats = sol.stats
+    log(f"CARE ({int(stats['care_iterations'])} sign iterations) and the 6-period sweep in "
         f"{time.perf_counter() - t:.1f} s")
+    t = time.perf_counter()
+    flown = fly(sol)
+    log(f"flown on the linear model in {time.perf_counter() - t:.1f} s")
     A = np.asarray(hcw_matrix(n))
     B = np.vstack([np.zeros((3, 3)), np.eye(3)])
-    eig = np.linalg.eigvals(A - B @ np.asarray(lqr.K))
+    K = np.asarray(stats["K0"])
+    eig = np.linalg.eigvals(A - B @ K)
     link, link_data = kkt_link(log)
-    u = np.asarray(flight.controls)
+    u = np.asarray(sol.controls(ts))
     computed = {
-        "care_residual": float(lqr.residual),
+        "care_residual": float(stats["care_residual"]),
         "care_residual_definition": "|A^T P + P A - P B R^-1 B^T P + Q|_F / |Q|_F in the "
                                     "solver's nondimensional scaling (time 1/n, lengths m)",
         "closed_loop_max_real_eig": float(eig.real.max()),
         "closed_loop_max_real_eig_units": "1/s",
         "closed_loop_eigenvalues_over_n": [[float(z.real), float(z.imag)] for z in
                                            sorted(eig / n, key=lambda z: (z.real, z.imag))],
-        "dv_total": float(flight.dv),
+        "dv_total": float(sol.delta_v),
         "dv_units": "m/s (int |u| dt over 6 chief periods)",
-        "final_state": [float(v) for v in np.asarray(flight.final_state)],
+        "final_state": [float(v) for v in np.asarray(sol.node_states[-1])],
         "final_state_units": "LVLH [x, y, z, vx, vy, vz], m and m/s, after 6 chief periods",
+        "flown_final_state": [float(v) for v in np.asarray(flown.states[-1])],
+        "flown_plan_error": [float(v) for v in np.asarray(flown.plan_error)],
+        "flown_units": "the solution's control u(t) flown open loop on the linear (HCW) model "
+                       "by verify.fly (Dopri8, rtol = atol = 1e-12 on scaled states): final "
+                       "LVLH state (m, m/s) and the largest |flown - planned| [m, m/s] over "
+                       f"{flown.times.shape[0]} uniform times",
         "peak_acceleration": float(np.linalg.norm(u, axis=1).max()),
-        "cost_6_periods": float(flight.cost),
-        "cost_infinite_horizon": float(flight.predicted_cost),
+        "cost_6_periods": float(sol.cost),
+        "cost_infinite_horizon": float(stats["predicted_cost"]),
         "cost_units": "1/2 int (x^T Q x + u^T R u) dt (+ 1/2 x(T)^T P x(T)), s (Q, R as below)",
-        "sign_iterations": int(lqr.iterations),
-        "P": np.asarray(lqr.P).tolist(),
-        "K": np.asarray(lqr.K).tolist(),
+        "sign_iterations": int(stats["care_iterations"]),
+        "P": np.asarray(stats["P0"]).tolist(),
+        "K": K.tolist(),
         "K_units": "m/s^2 per [m, m, m, m/s, m/s, m/s]",
         "kkt_link": link,
         "case": {
@@ -178,7 +194,7 @@ def compute(log=print):
             "frame": "LVLH: x radial outward, y along-track, z orbit normal",
         },
     }
-    return ts, flight, link_data, computed
+    return ts, sol, link_data, computed
 
 
 NOTES = [
@@ -204,6 +220,7 @@ def report(computed, log=print):
         ("peak |u| (m/s^2)", f"{c['peak_acceleration']:.6e}"),
         ("final position |r| (m)", f"{np.linalg.norm(c['final_state'][:3]):.3e}"),
         ("final velocity |v| (m/s)", f"{np.linalg.norm(c['final_state'][3:]):.3e}"),
+        ("flown on HCW: max |r_flown - r_plan| (m)", f"{c['flown_plan_error'][0]:.3e}"),
         ("KKT law J (m^2/s^3), one period", f"{k['J_kkt']:.12e}"),
         ("hard-constraint LQ sweep J", f"{k['J_lq_hard']:.12e}"),
         ("  max |u_LQ - u_KKT| / max |u_KKT| at nodes", f"{k['control_rel_diff_at_nodes']:.2e}"),
@@ -219,17 +236,18 @@ def report(computed, log=print):
         log(f"- {note}")
 
 
-def figures(ts, flight, link_data, computed, out_dir):
-    """State and control histories of the 6-period flight; the KKT cross-check."""
+def figures(ts, sol, link_data, computed, out_dir):
+    """State and control histories of the 6-period flight (the `Solution` at ts); the KKT
+    cross-check."""
     from .plots import plot_control_history, plot_relative_motion, plot_terminal_weight_limit
 
     period = 2.0 * np.pi / mean_motion()
     t_rev = np.asarray(ts) / period
     return [
-        plot_relative_motion(t_rev, np.asarray(flight.states), out_dir / "fig1_states.png",
+        plot_relative_motion(t_rev, np.asarray(sol.states(ts)), out_dir / "fig1_states.png",
                              "LQR rendezvous: LVLH state (t in chief periods)",
                              time_label="t (chief periods)"),
-        plot_control_history(t_rev, np.asarray(flight.controls), out_dir / "fig2_control.png",
+        plot_control_history(t_rev, np.asarray(sol.controls(ts)), out_dir / "fig2_control.png",
                              "LQR rendezvous: control acceleration",
                              time_label="t (chief periods)"),
         plot_terminal_weight_limit(computed["kkt_link"], *link_data,
@@ -239,10 +257,10 @@ def figures(ts, flight, link_data, computed, out_dir):
 
 def reproduce(out_dir, log=print):
     """Run the case: compute, print, draw. Returns the JSON-ready result dict."""
-    ts, flight, link_data, computed = compute(log)
+    ts, sol, link_data, computed = compute(log)
     report(computed, log)
     out_dir.mkdir(parents=True, exist_ok=True)
-    for path in figures(ts, flight, link_data, computed, out_dir):
+    for path in figures(ts, sol, link_data, computed, out_dir):
         log(f"wrote {path}")
     return {"schema_version": 1, "case": NAME, "published": PUBLISHED, "computed": computed,
             "notes": NOTES}

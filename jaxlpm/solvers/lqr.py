@@ -11,10 +11,11 @@ with Q symmetric positive semidefinite and R symmetric positive definite, in con
 (x^T Q x and u^T R u in one unit: Q's position block in 1/m^2, its velocity block in s^2/m^2
 and R in s^4/m^2 make both dimensionless; the gain does not depend on the cost's unit).
 
-hcw_lqr            infinite horizon (T -> inf, the paper's law): u = -K x, K = R^-1 B^T P, P
-                   the stabilising solution of the algebraic Riccati equation (`care`).
-finite_horizon_lqr finite horizon, with a terminal weight S_T or the hard terminal constraint
-                   x(T) = 0 (S_T -> inf); with S_T = P of `hcw_lqr` it flies the stationary law.
+hcw_lqr   the infinite-horizon design (T -> inf, the paper's law): u = -K x, K = R^-1 B^T P,
+          P the stabilising solution of the algebraic Riccati equation (`care`).
+FAMILY    `jaxlpm.solve` of an `LQRTransfer` (method "riccati"): the finite horizon with a
+          terminal weight S_T, the hard terminal constraint x(T) = 0 (S_T -> inf), or the
+          stationary law of `hcw_lqr` flown over the duration (S_T = P, which leaves P(t) = P).
 
 Internal scaling (both): time by 1/n (tau = n t), velocities by n (x^ = [r, v / n], m),
 controls by n^2 (u^ = u / n^2, m), and the cost by c = n^4 tr(R) / 3, so that
@@ -24,18 +25,33 @@ P = (c / n) S^-1 P^ S^-1 and K = n^2 K^ S^-1 with S = diag(1, 1, 1, n, n, n).
 Finite horizon, exactly (no ODE error control): the Riccati differential equation
 -dP/dt = A^T P + P A - P G P + Q is linear in the Hamiltonian variables, P = Y X^-1 with
 d/dt [X; Y] = H [X; Y], H = [[A, -G], [-Q, -A^T]] (Radon's lemma). Over a uniform grid of
-`steps` intervals of length h the sweep steps backward [X; Y] <- expm(-H h) [I; P_k] and
-re-normalises to P_{k-1} = Y X^-1 every step (the modified Davison-Maki method, Kenney &
-Leipnik, IEEE TAC 30(10), 1985), which avoids the exponential growth of one long propagation.
-The terminal pair is [X; Y](T) = [I; S_T], or [0; I] for the hard constraint (P(T) = inf is
-never formed). Forward, the optimal state and costate obey the same Hamiltonian system, so
-[x; lambda] <- expm(H h) [x_k; P_k x_k] steps the closed loop exactly, and u = -R^-1 B^T lambda
-at any time within a step. Delta-v and cost integrals are Gauss-Legendre sums on every step.
-Each step amplifies rounding by at most exp(h |eig(H)|): keep h |eig(H)| below ~5 (the default
-512 steps over 6 periods is h = 0.074 rad: closed-loop rates up to ~60 n).
+`steps` intervals of length h (the `grid` of `solve`: an int, default STEPS) the sweep steps
+backward [X; Y] <- expm(-H h) [I; P_k] and re-normalises to P_{k-1} = Y X^-1 every step (the
+modified Davison-Maki method, Kenney & Leipnik, IEEE TAC 30(10), 1985), which avoids the
+exponential growth of one long propagation. The terminal pair is [X; Y](T) = [I; S_T], or
+[0; I] for the hard constraint (P(T) = inf is never formed). Forward, the optimal state and
+costate obey the same Hamiltonian system, so [x; lambda] <- expm(H h) [x_k; P_k x_k] steps the
+closed loop exactly; between the nodes the solution is the same flow from the node before
+(`jaxlpm.solution.HamiltonianFlow`), u = -R^-1 B^T lambda. Delta-v and cost integrals are
+Gauss-Legendre sums on every step. The sweep balances the costates (lambda^ = alpha lambda~,
+alpha = sqrt(|Q^|_F / |G^|_F), `balancing`, as the CARE does) so that H's blocks have equal
+norms: weights far from balance (Q = I and R = I in SI: |Q^| ~ 1e12) would otherwise put
+|H h| beyond the range of expm. Each step amplifies rounding by at most exp(h |eig(H)|):
+keep h |eig(H)| below ~5 (the default 512 steps over 6 periods is h = 0.074 rad: closed-loop
+rates up to ~60 n).
+
+`Solution` of an `LQRTransfer` (frame LVLH, SI): cost J above (the Gauss-Legendre sum; with
+terminal "infinite" the cost spent up to T plus 1/2 x(T)^T P x(T), i.e. 1/2 x0^T P x0);
+states, controls and costates lambda = P(t) x(t) = dJ*/dx(t) exact at any t; `times` the
+steps + 1 sweep nodes. stats: predicted_cost 1/2 x0^T P(0) x0; P0 (6, 6) P(0) and K0 (3, 6)
+R^-1 B^T P(0) in SI (the stationary CARE's P and K for "infinite"); for "infinite" also
+care_residual, care_iterations and care_rcond (`CareSolution`, nondimensional). Status:
+SUCCESS, INVALID_INPUT (traced bad input), NONFINITE (a sweep step met a singular X), or the
+CARE's failure for "infinite" (NOT_STABILISABLE, NOT_DETECTABLE, ...); outputs are zeroed
+unless SUCCESS.
 """
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import jax
 import jax.numpy as jnp
@@ -43,10 +59,12 @@ import numpy as np
 
 from .._validation import check_finite, check_shape, is_concrete, require_x64
 from ..dynamics import hcw_matrix
+from ..problems.lqr import LQRTransfer
+from ..solution import HamiltonianFlow, Solution, zero_invalid
 from ..status import Status
-from .riccati import CareSolution, care, validate_weights
+from .family import FamilySolver
+from .riccati import CareProblem, CareSolution, balancing, care
 
-GAUSS_POINTS = 8          # Gauss-Legendre points per sweep step for delta-v and cost integrals
 STEPS = 512               # default sweep steps over the horizon
 
 
@@ -69,9 +87,7 @@ def _check_weights(n, Q, R):
     check_shape("n", n, ())
     if not float(check_finite("n", n)) > 0.0:
         raise ValueError(f"the mean motion n must be positive (rad/s), got {n}")
-    check_shape("Q", Q, (6, 6))
-    check_shape("R", R, (3, 3))
-    validate_weights(check_finite("Q", Q), check_finite("R", R))
+    CareProblem(hcw_matrix(1.0), _input_matrix(), Q, R).validate()
 
 
 def _scaled_problem(n, Q, R):
@@ -82,12 +98,16 @@ def _scaled_problem(n, Q, R):
     return (valid, n) + _nondimensional(n, Q, jnp.where(valid, R, jnp.eye(3)))
 
 
+def _si_matrices(P, K, n, s, c):
+    """P and K of the nondimensional problem in SI (module docstring)."""
+    return (c / n) * P / (s[:, None] * s[None, :]), n**2 * K / s[None, :]
+
+
 def _to_si(sol, valid, n, s, c):
     """The nondimensional CARE solution with P and K in SI (zeros unless SUCCESS)."""
     status = jnp.where(valid, sol.status, Status.INVALID_INPUT).astype(jnp.int32)
     keep = status == Status.SUCCESS
-    P = jnp.where(keep, (c / n) * sol.P / (s[:, None] * s[None, :]), 0.0)
-    K = jnp.where(keep, n**2 * sol.K / s[None, :], 0.0)
+    P, K = (jnp.where(keep, M, 0.0) for M in _si_matrices(sol.P, sol.K, n, s, c))
     return replace(sol, P=P, K=K, residual=jnp.where(keep, sol.residual, 0.0), status=status)
 
 
@@ -109,6 +129,7 @@ def hcw_lqr(n, Q, R) -> CareSolution:
     are those of the nondimensional CARE the solver saw (module docstring). vmap over
     (n, Q, R) and differentiable. Concrete inputs are validated, and scaled by small compiled
     functions around the compiled `care` (whose one compilation per shape serves both).
+    The design alone: `jaxlpm.solve(LQRTransfer(..., terminal="infinite"))` also flies it.
     """
     require_x64()
     if is_concrete(n, Q, R):
@@ -119,58 +140,30 @@ def hcw_lqr(n, Q, R) -> CareSolution:
     return _hcw_lqr(n, Q, R)
 
 
-@jax.tree_util.register_dataclass
-@dataclass(frozen=True)
-class Flight:
-    """A closed-loop LQ flight on the HCW equations (LVLH, SI).
-
-    times         (k,) s, the requested output times
-    states        (k, 6) m, m/s
-    controls      (k, 3) m/s^2
-    final_state   (6,) at the end of the horizon
-    dv            int_0^T |u| dt, m/s
-    cost          1/2 x(T)^T S_T x(T) + 1/2 int_0^T (x^T Q x + u^T R u) dt (the terminal term is
-                  absent under the hard constraint), by Gauss-Legendre quadrature
-    predicted_cost 1/2 x0^T P(0) x0 from the Riccati solution (equals `cost` at the optimum)
-    status        `Status` (int32): SUCCESS, INVALID_INPUT or NONFINITE (e.g. a sweep step
-                  met a singular X); `infinite_horizon_flight` passes on the CARE's status
-    """
-
-    times: jax.Array
-    states: jax.Array
-    controls: jax.Array
-    final_state: jax.Array
-    dv: jax.Array
-    cost: jax.Array
-    predicted_cost: jax.Array
-    status: jax.Array
 
 
-def _sweep(n, Q, R, x0, duration, ts, S_T, hard, steps):
-    """The finite-horizon sweep of the module docstring, in nondimensional variables."""
+def _sweep(n, Q, R, x0, duration, S_T, hard: bool, steps: int):
+    """The finite-horizon sweep of the module docstring, in nondimensional variables with
+    balanced costates (lambda^ = alpha lambda~, P^ = alpha P~, `balancing`). Returns (the
+    `HamiltonianFlow`, cost J, P(0), K(0)), J, P and K in SI."""
     A, B, Qh, Rh, s, c = _nondimensional(n, Q, R)
     Gain = jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(Rh), B.T)     # R^-1 B^T
-    G = B @ Gain
-    H = jnp.block([[A, -G], [-Qh, -A.T]])
+    alpha = balancing(Qh, B @ Gain)
+    Gain = alpha * Gain                                 # u^ = -Gain lambda~
+    H = jnp.block([[A, -B @ Gain], [-Qh / alpha, -A.T]])
     m = A.shape[0]
     eye = jnp.eye(m, dtype=A.dtype)
     h = n * duration / steps
-    # every matrix exponential in one batched call (one compiled expm): a step backward and
-    # forward, the Gauss-Legendre offsets within a step, the offsets of the output times
-    xi, wi = np.polynomial.legendre.leggauss(GAUSS_POINTS)
-    tau = n * ts
-    k = jnp.clip(jnp.floor(tau / h).astype(jnp.int32), 0, steps - 1)
-    thetas = jnp.concatenate([jnp.stack([-h, h]), 0.5 * h * (xi + 1.0), tau - k * h])
-    E = jax.vmap(lambda th: jax.scipy.linalg.expm(H * th))(thetas)
-    back, fwd, E_gauss, E_out = E[0], E[1], E[2:2 + GAUSS_POINTS], E[2 + GAUSS_POINTS:]
+    back, fwd = jax.vmap(jax.scipy.linalg.expm)(H * jnp.stack([-h, h])[:, None, None])
 
     def riccati(XY):
         X, Y = XY[:m], XY[m:]
         P = jnp.linalg.solve(X.T, Y.T).T                 # Y X^-1
         return 0.5 * (P + P.T)
 
-    S_hat = (n / c) * s[:, None] * S_T * s[None, :]
-    XY_T = jnp.where(hard, jnp.concatenate([0.0 * eye, eye]), jnp.concatenate([eye, S_hat]))
+    S_hat = (n / c) * s[:, None] * S_T * s[None, :]    # S^; S~ = S^ / alpha
+    XY_T = (jnp.concatenate([0.0 * eye, eye]) if hard
+            else jnp.concatenate([eye, S_hat / alpha]))
 
     def back_step(XY, _):
         P = riccati(XY)
@@ -183,94 +176,69 @@ def _sweep(n, Q, R, x0, duration, ts, S_T, hard, steps):
         z0 = jnp.concatenate([x, P @ x])
         return (fwd @ z0)[:m], z0
 
-    xT, Z = jax.lax.scan(fwd_step, x0 / s, Ps)          # Z[k] = [x_k; lambda_k]
+    _, Z = jax.lax.scan(fwd_step, x0 / s, Ps)           # Z[k] = [x_k; lambda~_k]
+    flow = HamiltonianFlow(
+        hamiltonian=H, gain=Gain, nodes=jnp.concatenate([Z, (fwd @ Z[-1])[None]]),
+        duration=duration, rate=n, state_unit=s, costate_unit=alpha * (c / n) / s,
+        control_unit=n**2, steps=steps)
 
-    # outputs at the requested times, from the node before each
-    out = jnp.einsum("kij,kj->ki", E_out, Z[k])
-    xs, us = out[:, :m], -out[:, m:] @ Gain.T
-
-    # Gauss-Legendre integrals over every step (the same offsets on every step)
-    W = jnp.einsum("gij,kj->kgi", E_gauss, Z)           # (steps, points, 2m)
-    xq, uq = W[..., :m], -jnp.einsum("ij,kgj->kgi", Gain, W[..., m:])
-    w = 0.5 * h * jnp.asarray(wi)
-    dv_hat = jnp.sum(w * jnp.linalg.norm(uq, axis=-1))
+    w, z = flow.quadrature()
+    xq, uq = z[..., :m], -jnp.einsum("ij,kgj->kgi", Gain, z[..., m:])
     running = 0.5 * jnp.sum(w * (jnp.einsum("kgi,ij,kgj->kg", xq, Qh, xq)
                                  + jnp.einsum("kgi,ij,kgj->kg", uq, Rh, uq)))
-    terminal = jnp.where(hard, 0.0, 0.5 * xT @ S_hat @ xT)
-    xh0 = x0 / s
-    return dict(states=xs * s, controls=n**2 * us, final_state=xT * s, dv=n * dv_hat,
-                cost=(c / n) * (running + terminal),
-                predicted_cost=(c / n) * 0.5 * xh0 @ Ps[0] @ xh0)
+    xT = flow.nodes[-1, :m]
+    terminal = 0.0 if hard else 0.5 * xT @ S_hat @ xT
+    P0, K0 = _si_matrices(alpha * Ps[0], Gain @ Ps[0], n, s, c)
+    return flow, (c / n) * (running + terminal), P0, K0
 
 
-def _flight(n, Q, R, x0, duration, ts, S_T, hard, steps):
-    valid = (jnp.isfinite(n) & (n > 0) & jnp.isfinite(duration) & (duration > 0)
-             & jnp.all(jnp.isfinite(x0)) & jnp.all(jnp.isfinite(ts))
-             & jnp.all(jnp.isfinite(S_T)) & jnp.all(jnp.isfinite(Q)) & jnp.all(jnp.isfinite(R))
-             & jnp.all(jnp.isfinite(jnp.linalg.cholesky(jnp.where(jnp.isfinite(R), R, 1.0)))))
-    n = jnp.where(valid, n, 1.0)
-    duration = jnp.where(valid, duration, 1.0)
-    Q, R = jnp.where(valid, Q, jnp.eye(6)), jnp.where(valid, R, jnp.eye(3))
-    out = _sweep(n, Q, R, jnp.where(valid, x0, 0.0), duration, jnp.where(valid, ts, 0.0),
-                 jnp.where(valid, S_T, 0.0), hard, steps)
-    finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(v)) for v in out.values()]))
-    status = jnp.select([~valid, ~finite], [Status.INVALID_INPUT, Status.NONFINITE],
+def _lqr_transfer(problem: LQRTransfer, steps: int) -> Solution:
+    valid = problem.validity()
+    problem = problem.sanitized(valid)
+    n, Q, R, x0 = problem.orbit.mean_motion, problem.Q, problem.R, problem.x0
+    if problem.terminal == "infinite":
+        design = _hcw_lqr(n, Q, R)
+        S_T, status = design.P, design.status
+        stats = dict(care_residual=design.residual, care_iterations=design.iterations,
+                     care_rcond=design.rcond)
+    else:
+        S_T, status, stats = problem.terminal_weight, jnp.int32(Status.SUCCESS), {}
+    flow, cost, P0, K0 = _sweep(n, Q, R, x0, problem.duration, S_T,
+                                problem.terminal == "hard", steps)
+    if problem.terminal == "infinite":
+        P0, K0 = design.P, design.K                     # P(t) = P: the stationary law
+    stats |= dict(predicted_cost=0.5 * x0 @ P0 @ x0, P0=P0, K0=K0)
+    finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(v)) for v in
+                                (flow.nodes, cost, stats["predicted_cost"], P0)]))
+    status = jnp.select([~valid, status != Status.SUCCESS, ~finite],
+                        [Status.INVALID_INPUT, status, Status.NONFINITE],
                         Status.SUCCESS).astype(jnp.int32)
-    out = {k: jnp.where(status == Status.SUCCESS, v, 0.0) for k, v in out.items()}
-    return Flight(times=jnp.where(valid, ts, 0.0), status=status, **out)
+    ok = status == Status.SUCCESS
+    return Solution(problem=problem, status=status, cost=zero_invalid(ok, cost),
+                    duration=problem.duration,
+                    trajectory=replace(flow, hamiltonian=zero_invalid(ok, flow.hamiltonian),
+                                       nodes=zero_invalid(ok, flow.nodes)),
+                    stats=zero_invalid(ok, stats), method="riccati", frame="LVLH")
 
 
-_flight_jit = jax.jit(_flight, static_argnames="steps")
+_compiled = jax.jit(_lqr_transfer, static_argnames="steps")
 
 
-def finite_horizon_lqr(n, Q, R, x0, duration, ts, terminal_weight=None,
-                       steps: int = STEPS) -> Flight:
-    """Finite-horizon LQ rendezvous on HCW, solved exactly by the Riccati sweep (module
-    docstring): the optimal closed loop from x0 to the target at the origin.
-
-    n: chief mean motion (rad/s); Q (6, 6), R (3, 3) as in `hcw_lqr`; x0 (6,) LVLH state
-    (m, m/s; x radial, y along-track, z normal); duration T (s); ts (k,) output times in
-    [0, T] (s); terminal_weight S_T (6, 6) symmetric positive semidefinite, in the units of Q
-    times seconds, or None for the hard terminal constraint x(T) = 0 (the limit S_T -> inf;
-    with Q = 0 and R = I this is the energy-optimal transfer of `EnergyOptimalTransfer` with
-    e = 0, xf = 0, which `solve(..., method="kkt")` discretises). `steps` (static) sets the
-    sweep's grid. Traced bad input gives status INVALID_INPUT and zero outputs.
-    """
-    require_x64()
-    hard = terminal_weight is None
-    S_T = jnp.zeros((6, 6)) if hard else terminal_weight
-    if is_concrete(n, Q, R, x0, duration, ts, S_T):
-        _check_weights(n, Q, R)
-        check_shape("x0", x0, (6,))
-        check_finite("x0", x0)
-        check_shape("duration", duration, ())
-        T = float(check_finite("duration", duration))
-        if not T > 0.0:
-            raise ValueError(f"duration must be positive (s), got {T}")
-        t = check_finite("ts", ts)
-        if t.ndim != 1 or t.size == 0 or t.min() < 0.0 or t.max() > T * (1 + 1e-12):
-            raise ValueError(f"ts must be a non-empty 1-D array of times in [0, {T}] s")
-        if not hard:
-            check_shape("terminal_weight", S_T, (6, 6))
-            Sn = check_finite("terminal_weight", S_T)
-            lam = np.linalg.eigvalsh(0.5 * (Sn + Sn.T))
-            if not np.allclose(Sn, Sn.T, rtol=1e-10, atol=0) or lam.min() < -1e-12 * max(
-                    abs(lam).max(), 1e-300):
-                raise ValueError("terminal_weight must be symmetric positive semidefinite, "
-                                 f"got eigenvalues {lam}")
-        if not (isinstance(steps, int) and steps >= 1):
-            raise ValueError(f"steps must be a positive int, got {steps!r}")
-        args = [jnp.asarray(v, jnp.float64) for v in (n, Q, R, x0, duration, ts, S_T)]
-        return _flight_jit(*args, jnp.asarray(hard), steps=steps)
-    return _flight(n, Q, R, x0, duration, ts, S_T, jnp.asarray(hard), steps)
+def check_grid(grid, method):
+    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or grid < 1:
+        raise ValueError(f"grid must be the number of uniform Riccati sweep steps (a positive "
+                         f"int; default {STEPS}), got {grid!r:.60}")
 
 
-def infinite_horizon_flight(n, Q, R, x0, duration, ts, steps: int = STEPS):
-    """Fly the stationary LQR law u = -K x of `hcw_lqr` for `duration` seconds (Jiang 2011):
-    the finite-horizon sweep with terminal weight P (which leaves P(t) = P). Returns
-    (CareSolution, Flight); `Flight.predicted_cost` is the infinite-horizon cost 1/2 x0^T P x0,
-    `Flight.cost` the part spent up to T plus 1/2 x(T)^T P x(T) (the cost still to come)."""
-    lqr = hcw_lqr(n, Q, R)
-    flight = finite_horizon_lqr(n, Q, R, x0, duration, ts, terminal_weight=lqr.P, steps=steps)
-    return lqr, replace(flight, status=jnp.where(lqr.status == Status.SUCCESS, flight.status,
-                                                 lqr.status))
+def run(problem, grid, method, options) -> Solution:
+    """Solve an `LQRTransfer` by the Riccati sweep over `grid` uniform steps (module
+    docstring): jit-compiled once per (terminal kind, steps); vmap- and grad-able. Traced bad
+    input gives status INVALID_INPUT and zeroed outputs. The solution is exact for any number
+    of steps, but rounding grows by up to exp(h |eig(H)|) a step and the cost's quadrature
+    needs the steps to resolve the closed loop: keep h |eig(H)| below ~5 (h = duration / steps
+    times the fastest closed-loop rate; Q = I, R = I in SI over one period wants ~4096)."""
+    return _compiled(problem, steps=int(grid))
+
+
+FAMILY = FamilySolver(problem=LQRTransfer, methods={"riccati": None}, run=run,
+                      default_grid=lambda problem: STEPS, check_grid=check_grid)

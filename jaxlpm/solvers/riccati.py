@@ -11,8 +11,9 @@ Method. Jiang 2011 (after Laub 1979) takes P from the ordered real Schur form of
 Hamiltonian H = [[A, -G], [-Q, -A^T]]. JAX has no ordered Schur decomposition on every backend,
 so the stable invariant subspace of H is found from the matrix sign function instead (Roberts
 1971; Byers 1987; Gardiner & Laub 1986), which needs only LU and QR factorisations:
-  1. balance P = alpha P~, alpha = sqrt(|Q|_F / |G|_F): the blocks -alpha G and -Q / alpha of
-     the balanced Hamiltonian have equal norms (the relative residual is unchanged by this);
+  1. balance P = alpha P~, alpha = sqrt(|Q|_F / |G|_F) (`balancing`): the blocks -alpha G and
+     -Q / alpha of the balanced Hamiltonian have equal norms (the relative residual is
+     unchanged by this);
   2. Newton's iteration for sign(H) with determinant scaling,
      Z <- (c Z + Z^-1 / c) / 2,  c = |det Z|^(-1/2n), in a lax.while_loop (static maximum),
      with the Hamiltonian structure (J Z symmetric) restored at every step;
@@ -36,16 +37,16 @@ Derivatives: P is differentiated implicitly through F(P; A, B, Q, R) = 0 (`jaxlp
 dF/dP is the Lyapunov operator of the closed loop, invertible because A - G P is Hurwitz.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_finite, is_concrete, require_x64
+from .._validation import Checked, Rule, real_array, require_x64
 from ..implicit import root
-from ..linalg import (RCOND_SINGULAR, cholesky_factor, member_by_member, qr_rcond,
-                      sequential_when_batched)
+from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, sequential_when_batched
+from ..problems.lqr import weight_rules
 from ..status import Status
 
 MAX_ITERATIONS = 50     # determinant-scaled sign iterations take ~10 on the HCW cases
@@ -55,8 +56,6 @@ STAGNATION = 1e-6       # below this change a non-decreasing change is rounding 
 SUBSPACE_TOL = 1e-8     # largest relative inconsistency of the subspace equations (step 3)
 RESIDUAL_TOL = 1e-8     # largest relative CARE residual called SUCCESS
 STABILITY_TOL = 1e-12   # smallest closed-loop stability margin, relative (see the certificate)
-SYMMETRY_TOL = 1e-10    # |M - M^T|_F / |M|_F allowed for Q and R
-PSD_TOL = 1e-12         # Q may have eigenvalues down to -PSD_TOL * |Q|_2
 
 
 @jax.tree_util.register_dataclass
@@ -182,6 +181,16 @@ def _lyapunov_solve(Acl, C):
     return (jnp.asarray(D) @ x).T.reshape(C.shape)
 
 
+def balancing(Q, G):
+    """alpha = sqrt(|Q|_F / |G|_F) (1 where either is 0): with P = alpha P~ (costates
+    lambda = alpha lambda~) the blocks -alpha G and -Q / alpha of the Hamiltonian
+    [[A, -G], [-Q, -A^T]] have equal norms. A choice of scaling that the answer does not
+    depend on: not differentiated."""
+    nq, ng = jnp.linalg.norm(Q), jnp.linalg.norm(G)
+    alpha = jnp.where((nq > 0) & (ng > 0), jnp.sqrt(nq / jnp.where(ng > 0, ng, 1.0)), 1.0)
+    return jax.lax.stop_gradient(alpha)
+
+
 def _stabilising_solution(A, G, Q):
     """Steps 1-4 of the module docstring for (A, G, Q): returns (P, iterations, rcond, ok).
 
@@ -194,8 +203,7 @@ def _stabilising_solution(A, G, Q):
     not mistaken for stable ones.
     """
     n = A.shape[0]
-    nq, ng = jnp.linalg.norm(Q), jnp.linalg.norm(G)
-    alpha = jnp.where((nq > 0) & (ng > 0), jnp.sqrt(nq / jnp.where(ng > 0, ng, 1.0)), 1.0)
+    alpha = balancing(Q, G)
     Gt, Qt = alpha * G, Q / alpha
     W, k, converged = _sign_hamiltonian(jnp.block([[A, -Gt], [-Qt, -A.T]]))
     eye = jnp.eye(n, dtype=A.dtype)
@@ -218,24 +226,6 @@ def _stabilising_solution(A, G, Q):
     ok = (converged & finite & (rcond >= RCOND_SINGULAR) & (inconsistency <= SUBSPACE_TOL)
           & stable & jnp.all(jnp.isfinite(P)) & (_relative_residual(P, A, G, Q) <= RESIDUAL_TOL))
     return jnp.where(ok, P, 0.0), k, rcond, ok
-
-
-def _validity(A, B, Q, R):
-    """In-graph checks matching `validate_care_inputs`: finite, Q and R symmetric, R positive
-    definite, Q positive semidefinite (Cholesky of Q + PSD_TOL |Q| I)."""
-    finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(M)) for M in (A, B, Q, R)]))
-
-    def symmetric(M):
-        nm = jnp.linalg.norm(M)
-        return jnp.linalg.norm(M - M.T) <= SYMMETRY_TOL * jnp.where(nm > 0, nm, 1.0)
-
-    def positive_definite(M):
-        M = jax.lax.stop_gradient(jnp.where(finite, M, 1.0))      # a flag: no derivative
-        return jnp.all(jnp.isfinite(cholesky_factor(M)))
-
-    shift = PSD_TOL * jnp.linalg.norm(Q) + jnp.finfo(Q.dtype).tiny
-    q_psd = positive_definite(Q + shift * jnp.eye(Q.shape[0], dtype=Q.dtype))
-    return finite & symmetric(Q) & symmetric(R) & positive_definite(R) & q_psd
 
 
 @root(riccati_residual, has_aux=True, zero_nonfinite=True)
@@ -279,12 +269,10 @@ def _solve(init, A, B, Q, R):
 def _care(A, B, Q, R):
     # invalid members solve a harmless stand-in (so that neither the solve nor its implicit
     # derivative meets a NaN) and are reported and zeroed afterwards
-    n, m = B.shape
-    valid = _validity(A, B, Q, R)
-    A = jnp.where(valid, A, -jnp.eye(n, dtype=A.dtype))
-    B = jnp.where(valid, B, 0.0)
-    Q = jnp.where(valid, 0.5 * (Q + Q.T), jnp.eye(n, dtype=Q.dtype))
-    R = jnp.where(valid, 0.5 * (R + R.T), jnp.eye(m, dtype=R.dtype))
+    inputs = CareProblem(A, B, Q, R)
+    valid = inputs.validity()
+    safe = inputs.sanitized(valid)
+    A, B, Q, R = safe.A, safe.B, 0.5 * (safe.Q + safe.Q.T), 0.5 * (safe.R + safe.R.T)
     P, (k, rcond, status) = _solve(None, A, B, Q, R)
     status = jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32)
     ok = status == Status.SUCCESS
@@ -296,36 +284,41 @@ def _care(A, B, Q, R):
 _care_jit = jax.jit(_care)
 
 
-def validate_care_inputs(A, B, Q, R) -> None:
-    """Raise ValueError for concrete inputs that are not a CARE: shapes (A (n, n), B (n, m),
-    Q (n, n), R (m, m)), non-finite entries, Q not symmetric positive semidefinite, R not
-    symmetric positive definite."""
-    A, B, Q, R = (check_finite(name, M) for name, M in zip("ABQR", (A, B, Q, R)))
-    if A.ndim != 2 or A.shape[0] != A.shape[1]:
-        raise ValueError(f"A must be a square (n, n) matrix, got shape {A.shape}")
-    n = A.shape[0]
-    if B.ndim != 2 or B.shape[0] != n or B.shape[1] < 1:
-        raise ValueError(f"B must have shape ({n}, m) with m >= 1, got {B.shape}")
-    m = B.shape[1]
-    if Q.shape != (n, n):
-        raise ValueError(f"Q must have shape ({n}, {n}), got {Q.shape}")
-    if R.shape != (m, m):
-        raise ValueError(f"R must have shape ({m}, {m}), got {R.shape}")
-    validate_weights(Q, R)
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class CareProblem(Checked):
+    """The data of a CARE A^T P + P A - P B R^-1 B^T P + Q = 0 and its checks, written once
+    (`jaxlpm._validation.Checked`): A (n, n), B (n, m) finite; Q (n, n) symmetric positive
+    semidefinite, R (m, m) symmetric positive definite (`jaxlpm.problems.lqr.weight_rules`);
+    any consistent units."""
 
+    A: jax.Array
+    B: jax.Array
+    Q: jax.Array
+    R: jax.Array
 
-def validate_weights(Q, R) -> None:
-    """Raise ValueError unless Q is symmetric positive semidefinite and R symmetric positive
-    definite (concrete, finite, square)."""
-    for name, M in (("Q", Q), ("R", R)):
-        if np.linalg.norm(M - M.T) > SYMMETRY_TOL * max(np.linalg.norm(M), 1e-300):
-            raise ValueError(f"{name} must be symmetric, got {M!r}")
-    if np.min(np.linalg.eigvalsh(R)) <= 0.0:
-        raise ValueError(f"R must be positive definite (control weight), got eigenvalues "
-                         f"{np.linalg.eigvalsh(R)}")
-    lam = np.linalg.eigvalsh(Q)
-    if lam.min() < -PSD_TOL * max(np.abs(lam).max(), 1e-300):
-        raise ValueError(f"Q must be positive semidefinite (state weight), got eigenvalues {lam}")
+    def rules(self):
+        return [Rule("A", jnp.all(jnp.isfinite(self.A)), "finite"),
+                Rule("B", jnp.all(jnp.isfinite(self.B)), "finite"),
+                *weight_rules(self.Q, self.R)]
+
+    def static_rules(self) -> None:
+        A, B, Q, R = (np.shape(real_array(name, getattr(self, name))) for name in "ABQR")
+        if len(A) != 2 or A[0] != A[1]:
+            raise ValueError(f"A must be a square (n, n) matrix, got shape {A}")
+        n = A[0]
+        if len(B) != 2 or B[0] != n or B[1] < 1:
+            raise ValueError(f"B must have shape ({n}, m) with m >= 1, got {B}")
+        m = B[1]
+        if Q != (n, n):
+            raise ValueError(f"Q must have shape ({n}, {n}), got {Q}")
+        if R != (m, m):
+            raise ValueError(f"R must have shape ({m}, {m}), got {R}")
+
+    def harmless(self) -> "CareProblem":
+        """A stable A = -I, no input, identity weights: a CARE with solution P = I / 2."""
+        n, m = np.shape(self.B)
+        return replace(self, A=-np.eye(n), B=np.zeros((n, m)), Q=np.eye(n), R=np.eye(m))
 
 
 def care(A, B, Q, R) -> CareSolution:
@@ -338,6 +331,5 @@ def care(A, B, Q, R) -> CareSolution:
     INVALID_INPUT and zero outputs instead. Differentiable (implicitly) in A, B, Q and R.
     """
     require_x64()
-    if is_concrete(A, B, Q, R):
-        validate_care_inputs(A, B, Q, R)
+    CareProblem(A, B, Q, R).check()
     return _care_jit(*(jnp.asarray(M, jnp.float64) for M in (A, B, Q, R)))
