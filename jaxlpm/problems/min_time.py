@@ -39,7 +39,7 @@ from ..orbits import KeplerOrbit
 from .scaling import length_scale, state_scale
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import collocation_s, costates, state_s, unpack
-from ..solution import Collocated, Solution
+from ..solution import Collocated, Solution, zero_invalid
 
 
 @jax.tree_util.register_dataclass
@@ -170,14 +170,14 @@ def to_solution(problem: MinimumTimeTransfer, ocp, grid, result, status, valid, 
     """The `Solution` (SI, LVLH) of the transcribed problem solved to `result` (an `ALResult`
     of `min_time_ocp`): duration t_f = (s_f - s0) / n (the cost), states and the thrust
     acceleration (T/m) u_hat unscaled, costates dJ/dx = (dJ~/dx~) / (n scale) (J = t_f,
-    x~ = x / scale), zeros where `valid` is False.
+    x~ = x / scale), zeros where `valid` is False (stats too, but for the lower bound).
 
     stats: node_s, state_s (s = s0 + n t at the collocation points and state rows),
     node_directions (u_hat), costates_scaled, multipliers, path_multipliers,
     constraint_residual, path_residual, stationarity_residual, complementarity (scaled
     units), outer_iterations, inner_iterations, history, duration_lower_bound (t_lb, s)."""
-    def keep(x):
-        return jnp.where(valid, x, jnp.zeros_like(x))
+    def keep(tree):
+        return zero_invalid(valid, tree)
 
     n = problem.orbit.mean_motion
     X, U, sf = unpack(result.z, ocp, grid)
@@ -194,14 +194,13 @@ def to_solution(problem: MinimumTimeTransfer, ocp, grid, result, status, valid, 
     return Solution(
         problem=problem, status=status, cost=duration, duration=duration,
         trajectory=trajectory,
-        stats=dict(node_s=node_s, state_s=rows_s, node_directions=keep(U),
-                   costates_scaled=keep(lam), multipliers=keep(result.multipliers),
-                   path_multipliers=result.path_multipliers,
-                   constraint_residual=result.constraint_residual,
-                   path_residual=result.path_residual,
-                   stationarity_residual=result.stationarity_residual,
-                   complementarity=result.complementarity,
-                   outer_iterations=result.outer_iterations,
-                   inner_iterations=result.inner_iterations, history=result.history,
-                   duration_lower_bound=t_lb),
+        stats=keep(dict(
+            node_s=node_s, state_s=rows_s, node_directions=U, costates_scaled=lam,
+            multipliers=result.multipliers, path_multipliers=result.path_multipliers,
+            constraint_residual=result.constraint_residual,
+            path_residual=result.path_residual,
+            stationarity_residual=result.stationarity_residual,
+            complementarity=result.complementarity, outer_iterations=result.outer_iterations,
+            inner_iterations=result.inner_iterations, history=result.history))
+        | dict(duration_lower_bound=t_lb),
         method="augmented-lagrangian")

@@ -28,6 +28,7 @@ tolerance (its steps lose digits as the states grow along the orbits), so those 
 at the iteration limit; the guess's QP and the convexity test use the condensed system.
 """
 
+import dataclasses
 import math
 
 import jax
@@ -205,12 +206,18 @@ def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
 
 def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
     valid = problem.validity()
-    problem = problem.sanitized(valid)
+    # t_max below the proven lower bound: infeasible before any solve, which is skipped (it
+    # runs on the harmless problem, like invalid input: the AL would spend its whole penalty
+    # schedule failing)
+    requested = problem.sanitized(valid)
+    t_lb = duration_lower_bound(requested)
+    hopeless = valid & (t_lb > requested.bounds[1])
+    problem = requested.sanitized(~hopeless)
     n = problem.orbit.mean_motion
-    t_lb = duration_lower_bound(problem)
     ocp = min_time_ocp(problem, 0.0)
     fixed = jax.lax.stop_gradient(ocp)                  # a starting point: not differentiated
-    z0, lam0, nu0 = initial_guess(fixed, grid, jax.lax.stop_gradient(n * t_lb))
+    z0, lam0, nu0 = initial_guess(fixed, grid,
+                                  jax.lax.stop_gradient(n * duration_lower_bound(problem)))
     fixed = fixed.replace(sf=z0[-1])
     rho0 = _first_convex_penalty(fixed, grid, z0, lam0, nu0, options)
     result = augmented_lagrangian(ocp.replace(sf=z0[-1]), grid, z0, lam0, options=options,
@@ -219,12 +226,12 @@ def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
     # infeasibility is shown by the lower bound, or by the AL's certificate with the duration
     # held at t_max (`run`)
     al_infeasible = result.status == Status.INFEASIBLE
-    shown = (t_lb > problem.bounds[1]) | (al_infeasible
-                                          & (result.path_multipliers.bounds[1] > 0.0))
+    shown = hopeless | (al_infeasible & (result.path_multipliers.bounds[1] > 0.0))
     status = jnp.where(shown, Status.INFEASIBLE,
                        jnp.where(al_infeasible, Status.STALLED, result.status))
     status = jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32)
-    return to_solution(problem, ocp, grid, result, status, valid, t_lb)
+    solution = to_solution(problem, ocp, grid, result, status, valid & ~hopeless, t_lb)
+    return dataclasses.replace(solution, problem=requested)
 
 
 _compiled = jax.jit(_min_time_transfer, static_argnames="options")
@@ -248,8 +255,9 @@ def run(problem, grid, method, options: ALOptions) -> Solution:
     options); vmap- and grad-able (implicit differentiation at the KKT point). Traced bad
     input gives status INVALID_INPUT and zeroed outputs.
 
-    INFEASIBLE only where infeasibility is shown: t_max below `duration_lower_bound`, or the
-    AL's certificate (the violation stalls with the penalty at its cap) with the t_max bound
+    INFEASIBLE only where infeasibility is shown: t_max below `duration_lower_bound` (then
+    no solve runs: outputs zero, stats["duration_lower_bound"] the bound), or the AL's
+    certificate (the violation stalls with the penalty at its cap) with the t_max bound
     active. Any other such stall ends STALLED. Without duration bounds every request is
     feasible (HCW is controllable with every eigenvalue on the imaginary axis, so bounded
     thrust reaches any state from any state; Lee & Markus 1967): a stall there typically
