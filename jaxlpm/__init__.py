@@ -9,6 +9,8 @@ A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTr
 `MinimumTimeTransfer`, `FuelOptimalTransfer`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points;
 `segmented_lgr`), `solve(problem, grid)` -> `Solution`, `verify.fly(solution)`, `batch`
 (sweeps, Monte Carlo), `lambert`, `Status`.
+The J2 intercepts (`ImpulsiveIntercept`, `FiniteBurnIntercept`) are posed and solved in the
+Earth-centred inertial frame (equatorial), SI units; their `Solution.frame` is "inertial".
 """
 
 from . import _cpu_runtime
@@ -24,6 +26,8 @@ from .orbits.lambert import LambertSolution, lambert  # noqa: E402
 from .nlp import ALOptions, HomotopyOptions, NewtonOptions, OptimalControlProblem  # noqa: E402
 from .problems import EnergyOptimalTransfer, MinimumTimeTransfer  # noqa: E402
 from .problems.fuel_optimal import FuelOptimalTransfer  # noqa: E402
+from .problems.intercept import FiniteBurnIntercept, ImpulsiveIntercept  # noqa: E402
+from .solvers.finite_burn import FiniteBurnOptions  # noqa: E402
 from .status import Status, describe  # noqa: E402
 from .solution import Solution, SolveError  # noqa: E402
 from .solvers import solve  # noqa: E402
@@ -45,3 +49,4 @@ __all__ = [
     "segmented_lgr", "solve", "switching_function", "switching_times", "uniform_breaks",
     "verify",
 ]
+__all__ += ["FiniteBurnIntercept", "FiniteBurnOptions", "ImpulsiveIntercept"]

@@ -3,5 +3,7 @@ an NLP (`jaxlpm.nlp`)."""
 
 from .min_time import MinimumTimeTransfer
 from .energy_optimal import MODELS, EnergyOptimalTransfer, check_problem
+from .intercept import FiniteBurnIntercept, ImpulsiveIntercept
 
 __all__ = ["EnergyOptimalTransfer", "MODELS", "MinimumTimeTransfer", "check_problem"]
+__all__ += ["FiniteBurnIntercept", "ImpulsiveIntercept"]

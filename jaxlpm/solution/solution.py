@@ -102,6 +102,14 @@ class Solution:
             return ("infeasible: the thrust bound cannot reach the target in the time (full "
                     "thrust everywhere, or the dual ascent diverged); stats['terminal_error'] "
                     "is the miss")
+        if self.method == "shooting" and status in (Status.INFEASIBLE, Status.SINGULAR):
+            return (f"{status.name.lower()} Lambert seed: no allowed revolution count and branch "
+                    f"reaches r_target in the time after the burn (INFEASIBLE), or the "
+                    f"transfer angle is 0 or pi (SINGULAR); stats['lambert_status']")
+        if self.frame == "inertial" and status == Status.INFEASIBLE:
+            return ("infeasible: the engine is too weak for the intercept (the burn that eq. "
+                    "(2) centres on the impulse does not fit between 0 and t_f), or no burn "
+                    "within max_duration reaches r_target")
         return status.message
 
     # ---- nodes --------------------------------------------------------------------------

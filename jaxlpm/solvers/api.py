@@ -9,6 +9,8 @@ compiled solver; every family returns a `Solution`.
 |                         | "newton" (any model and grid)           |                       |
 | `MinimumTimeTransfer`   | "augmented-lagrangian"                  | lg(32)                |
 | `FuelOptimalTransfer`   | "homotopy"                              | 24 LGR segments of 8  |
+| `ImpulsiveIntercept`    | "shooting" (Lambert + J2 Newton)        | none (grid=None)      |
+| `FiniteBurnIntercept`   | "augmented-lagrangian" (LGL burn arc)   | lgl(5)                |
 
 Grids count their points: `lgl(65)` has 65 LGL points (Mei 2010's degree N = 64).
 """
@@ -19,8 +21,10 @@ from .._validation import is_concrete, require_x64
 from ..solution import Solution, SolveError
 from ..status import Status
 from . import energy_optimal, fuel_optimal, min_time
+from . import finite_burn, impulsive
 
 FAMILIES = {f.problem: f for f in (energy_optimal.FAMILY, min_time.FAMILY, fuel_optimal.FAMILY)}
+FAMILIES.update({f.problem: f for f in (impulsive.FAMILY, finite_burn.FAMILY)})
 
 
 def solve(problem, grid=None, *, method=None, options=None, throw=True) -> Solution:
