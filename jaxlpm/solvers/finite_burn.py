@@ -3,7 +3,8 @@ eq. 20-21): LGL collocation of the burn arc joined to the J2 coast.
 
 A vehicle coasts from state0 at t = 0 (`FiniteBurnIntercept`: its `ImpulsiveIntercept` and the
 engine), fires a constant thrust F along a free unit direction u_hat from t_s to t_e = t_s + D,
-then coasts to t_f, where it must be at r_target. Inertial Earth-centred equatorial frame, SI units (m, m/s, kg, s, N):
+then coasts to t_f, where it must be at r_target. Inertial Earth-centred equatorial frame, SI
+units (m, m/s, kg, s, N):
 
     minimise    D  over t_s, D, u_hat(t)
     subject to  dr/dt = v,  dv/dt = a_grav(r) + (F / m(t)) u_hat,  |u_hat| = 1  (t_s..t_e)

@@ -68,8 +68,9 @@ def burn_state(problem: ImpulsiveIntercept, t_burn):
 
 def lambert_candidates(r1, r2, tof, revolutions, branches, mu=MU_EARTH):
     """Prograde Lambert solutions for every pair of the integers (scalars or 1-D arrays)
-    `revolutions` (M) and `branches` (0 left, 1 right), M-major: (v1 (K, 3), M (K,), branch (K,), status (K,)),
-    K = len(revolutions) len(branches) (for M = 0 the branch is moot)."""
+    `revolutions` (M) and `branches` (0 left, 1 right), M-major: (v1 (K, 3), M (K,),
+    branch (K,), status (K,)), K = len(revolutions) len(branches) (for M = 0 the branch is
+    moot)."""
     m, b = (x.ravel() for x in jnp.meshgrid(jnp.atleast_1d(revolutions),
                                             jnp.atleast_1d(branches), indexing="ij"))
     sol = jax.vmap(lambda mi, bi: lambert(r1, r2, tof, mi, bi, True, mu))(m, b)

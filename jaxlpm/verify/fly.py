@@ -182,9 +182,9 @@ def default_model(problem) -> str:
 
 def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
     """Fly `solution` (a relative transfer, frame LVLH, or an intercept, frame inertial;
-    module docstring) on `model` (None: its own), saving n_save uniform times; a batched solution flies member by member (its
-    leading axes on every output). Returns a `Flight`; never raises for a failed
-    integration (its status says so)."""
+    module docstring) on `model` (None: its own), saving n_save uniform times; a batched
+    solution flies member by member (its leading axes on every output). Returns a `Flight`;
+    never raises for a failed integration (its status says so)."""
     require_x64()
     if isinstance(n_save, bool) or not isinstance(n_save, int) or n_save < 2:
         raise ValueError(f"n_save must be an integer >= 2, got {n_save!r}")
