@@ -52,7 +52,9 @@ lgl(5)) returns a `Solution` (frame "inertial", trajectory `jaxlpm.solution.Fini
   cost      the burn duration D (s), the objective (fuel = mdot D: stats["fuel"], and
             `propellant(mass, isp)` gives the same by the rocket equation)
   duration  t_f (s)
-  delta_v   int F / m dt = isp g0 ln(m0 / (m0 - mdot D)) (m/s)
+  delta_v   int F / m dt = isp g0 ln(m0 / (m0 - mdot D)) (m/s); controls(t) = F / m(t) u_hat(t)
+            (m/s^2, inertial) during the burn, zero on the coasts; costates are not estimated
+            (NaN)
   stats     t_start, t_end, burn_duration (s), fuel (kg), miss |r(t_f) - r_target| (m) of the
             Dopri8 coast from the collocated end state, duration_gradient dD*/dt_s at t_start
             (0 at the optimum), constraint_residual, path_residual, stationarity_residual (the

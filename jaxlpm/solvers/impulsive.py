@@ -22,7 +22,8 @@ t_b and must be at r_target at t_f, under two-body + J2 gravity.
 
 `jaxlpm.solve(ImpulsiveIntercept(...))` (method "shooting", no grid) returns a `Solution`
 (frame "inertial", trajectory `jaxlpm.solution.Impulse`):
-  cost      |dv| (m/s)
+  cost      |dv| (m/s) = delta_v; controls(t) are zero (the impulse is stats["dv"]); costates
+            are not estimated (NaN)
   duration  t_f (s)
   stats     t_burn (s), dv, v_pre, v_post (3,) (m/s), r_burn (3,) (m), miss |r(t_f) -
             r_target| (m) by the solver's own coast, newton_iterations, revolutions and branch
