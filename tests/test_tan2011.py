@@ -80,7 +80,7 @@ def test_impulsive_solution_flies_to_target(case):
     assert np.linalg.norm(end[:3] - np.asarray(tan2011.R_F)) < 1e-2
     # the states: the initial state at 0, the post-burn state at t_b (right-continuous),
     # the target at t_f (to the Newton tolerance, 1 mm)
-    np.testing.assert_array_equal(sol.states(0.0), prob.state0)
+    np.testing.assert_allclose(sol.states(0.0), prob.state0, rtol=1e-14)  # scaled and back
     after = np.r_[np.asarray(st["r_burn"]), np.asarray(st["v_post"])]
     np.testing.assert_allclose(sol.states(tan2011.T_BURN), after, rtol=1e-14)
     assert np.linalg.norm(sol.states(tan2011.T_F)[:3] - np.asarray(tan2011.R_F)) < 1e-3
@@ -159,8 +159,10 @@ def test_finite_burn_converges_and_flies_to_target(case, burn):
     fb, sol = burn
     assert sol.frame == "inertial" and bool(sol.success), sol.message
     st = sol.stats
-    # seeded internally by the impulsive solution (eq. 2)
-    np.testing.assert_array_equal(np.asarray(st["seed_dv"]), np.asarray(imp.stats["dv"]))
+    # seeded internally by the impulsive solution (eq. 2), compiled into the burn's program
+    # (so equal to the impulsive solve's to round-off, 2e-15 measured)
+    np.testing.assert_allclose(np.asarray(st["seed_dv"]), np.asarray(imp.stats["dv"]),
+                               rtol=1e-12)
     assert abs(float(st["duration_gradient"])) < 1e-6          # dD*/dt_s = 0 at the optimum
     flight = lpm.verify.fly(sol)
     assert bool(flight.success)
@@ -178,11 +180,12 @@ def test_finite_burn_converges_and_flies_to_target(case, burn):
     assert abs(float(sol.cost) - rocket) < 0.05
     np.testing.assert_allclose(np.linalg.norm(np.asarray(st["node_directions"]), axis=1), 1.0,
                                atol=1e-7)   # |u|^2 - 1 is held to the AL's tol_path, 1e-7
-    # the states: the pre-burn coast meets the burn's first node (the boundary condition)
+    # the states: the burn's polynomial starts at its first node, and the pre-burn coast just
+    # before meets it (the boundary condition, held to 1e-14 in units of 1e7 m: 1e-7 m)
     t_s = float(st["t_start"])
-    np.testing.assert_allclose(sol.states(t_s), sol.node_states[0], rtol=1e-12)
-    np.testing.assert_allclose(sol.states(np.nextafter(t_s, 0.0)), sol.node_states[0],
-                               rtol=1e-9)
+    for t in (t_s, np.nextafter(t_s, 0.0)):
+        d = np.asarray(sol.states(t)) - np.asarray(sol.node_states[0])
+        assert np.linalg.norm(d[:3]) < 1e-5 and np.linalg.norm(d[3:]) < 1e-8, (t, d)
 
 
 def test_finite_burn_delta_v_is_the_integral_of_the_control(burn):
@@ -216,7 +219,7 @@ def test_finite_burn_infeasible_request_raises_or_returns_its_status(burn):
     sol = lpm.solve(weak, lpm.lgl(5), throw=False)
     assert int(sol.status) == Status.INFEASIBLE and float(sol.cost) == 0.0
     short = lpm.solve(fb.replace(max_duration=jnp.asarray(200.0)), lpm.lgl(5), throw=False)
-    assert int(short.status) != Status.SUCCESS
+    assert int(short.status) == Status.INFEASIBLE
     for s in (sol, short):
         for leaf in jax.tree_util.tree_leaves((s.cost, s.trajectory, s.stats)):
             assert np.all(np.isfinite(np.asarray(leaf)))

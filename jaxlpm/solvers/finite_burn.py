@@ -44,8 +44,9 @@ making the Newton-KKT matrix singular.
 Initial guess (the paper's eq. 2): the burn centred on the impulsive burn time t_b with the
 duration T = m0 |dv| / F, t_s0 = t_b - T / 2, direction along dv; nodal states: the coast from
 t_s plus the constant-acceleration increments (F / m0) u_hat (t - t_s) in velocity and half
-its time integral in position. The impulse (t_b, dv) is the problem's seed, or else the
-intercept's impulsive solution (`jaxlpm.solvers.impulsive`, solved inside the same program).
+its time integral in position; the multipliers by least squares there. The impulse (t_b, dv)
+is the problem's seed, or else the intercept's impulsive solution (`jaxlpm.solvers.impulsive`,
+solved inside the same program).
 
 `jaxlpm.solve(FiniteBurnIntercept(...), lgl(n))` (method "augmented-lagrangian", default grid
 lgl(5)) returns a `Solution` (frame "inertial", trajectory `jaxlpm.solution.FiniteBurn`):
@@ -79,7 +80,7 @@ from ..collocation import Grid, lgl
 from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import VARIATIONAL, propagate, solve_ode
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
-from ..nlp.newton import NewtonOptions
+from ..nlp.newton import DenseKKT, NewtonOptions
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import pack, unpack
 from ..problems.intercept import FiniteBurnIntercept
@@ -262,9 +263,15 @@ def _solve_arc(p, grid, t_s, z, lam, max_duration, options):
     return z, lam, status, p["T"] * jnp.dot(lam[-9:], dc), miss, residuals, k, inner
 
 
-def n_multipliers(grid) -> int:
-    """Equality multipliers of the arc problem: defects (n x 6) and boundary (6 + 3)."""
-    return 6 * grid.n + 9
+def _first_multipliers(ocp, grid, z):
+    """Least-squares multipliers of the arc problem at the guess z, its terminal coast's
+    model built there (`DenseKKT.first_multipliers`, the augmented Lagrangian's own default).
+    Zero multipliers made the first arc solve's path depend on the seed's last bits: from the
+    same guess it took 22 or 60 Newton iterations (or stopped at MAX_ITERATIONS inside the
+    whole program) for seeds 4e-10 m/s apart; from these, 29 to 34 for each seed tried."""
+    model = _end_model(z, ocp, grid)[0]
+    return DenseKKT(ocp.replace(params=dict(ocp.params, model=model)), grid,
+                    z).first_multipliers(z)
 
 
 def _seed(problem: FiniteBurnIntercept):
@@ -292,8 +299,9 @@ def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions)
          "mass_rate": problem.mass_rate, "T": T}
     half_width = options.search_half_width * T
     lo, hi = t_s0 - half_width, t_s0 + half_width
-    z0 = _guess_z(_arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration)[0], grid,
-                  dv_impulse / jnp.where(dv > 0.0, dv, 1.0))
+    ocp0 = _arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration)[0]
+    z0 = _guess_z(ocp0, grid, dv_impulse / jnp.where(dv > 0.0, dv, 1.0))
+    lam0 = _first_multipliers(ocp0, grid, z0)
 
     def cond(c):
         k, t_a, _, t_b, _, _, _, st = c[:8]
@@ -314,7 +322,7 @@ def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions)
 
     zero = jnp.asarray(0.0)
     init = (jnp.asarray(0, jnp.int32), t_s0, zero, t_s0, zero, z0,
-            jnp.zeros(n_multipliers(grid)), jnp.asarray(Status.SUCCESS, jnp.int32), zero,
+            lam0, jnp.asarray(Status.SUCCESS, jnp.int32), zero,
             jnp.zeros(3), jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32))
     # no search without a seed that fits (unbatched, the branch is skipped)
     k, t_a, _, t_s, g, z, lam, status, miss, res, n_solves, inner = jax.lax.cond(
