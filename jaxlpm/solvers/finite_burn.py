@@ -223,13 +223,19 @@ def _guess_z(ocp, grid, u):
     return pack(rv / _scales(p), jnp.tile(u, (grid.n, 1)), 1.0, ocp)
 
 
-def _solve_arc(p, grid, t_s, z, lam, max_duration, options):
+def _solve_arc(p, grid, t_s, z, lam, max_duration, options, cold):
     """Minimum D for burn start t_s from (z, lam): the augmented-Lagrangian arc solve, its
     terminal model rebuilt at each solution until the nonlinear residual is below
-    tol_boundary (at least one solve). Returns (z, lam, status, dD/dt_s (s/s), miss (m),
+    tol_boundary (at least one solve). cold: start from the least-squares multipliers at z
+    instead of lam (`DenseKKT.first_multipliers`, the augmented Lagrangian's own default; from
+    zero multipliers the first arc solve's path depended on the seed's last bits: 22 or 60
+    Newton iterations, or MAX_ITERATIONS inside the whole program, for seeds 4e-10 m/s apart;
+    29 to 34 for each from these). Returns (z, lam, status, dD/dt_s (s/s), miss (m),
     [residuals], solves, Newton iterations)."""
     ocp0, ok_start = _arc_ocp(p, t_s, z[-1], max_duration)
     model, resid, miss, ok = _end_model(z, ocp0, grid)
+    first = DenseKKT(ocp0.replace(params=dict(ocp0.params, model=model)), grid, z)
+    lam = jnp.where(cold, first.first_multipliers(z), lam)
 
     def step(c):
         z, lam, model, k, _, _, _, inner, residuals = c
@@ -263,15 +269,9 @@ def _solve_arc(p, grid, t_s, z, lam, max_duration, options):
     return z, lam, status, p["T"] * jnp.dot(lam[-9:], dc), miss, residuals, k, inner
 
 
-def _first_multipliers(ocp, grid, z):
-    """Least-squares multipliers of the arc problem at the guess z, its terminal coast's
-    model built there (`DenseKKT.first_multipliers`, the augmented Lagrangian's own default).
-    Zero multipliers made the first arc solve's path depend on the seed's last bits: from the
-    same guess it took 22 or 60 Newton iterations (or stopped at MAX_ITERATIONS inside the
-    whole program) for seeds 4e-10 m/s apart; from these, 29 to 34 for each seed tried."""
-    model = _end_model(z, ocp, grid)[0]
-    return DenseKKT(ocp.replace(params=dict(ocp.params, model=model)), grid,
-                    z).first_multipliers(z)
+def n_multipliers(grid) -> int:
+    """Equality multipliers of the arc problem: defects (n x 6) and boundary (6 + 3)."""
+    return 6 * grid.n + 9
 
 
 def _seed(problem: FiniteBurnIntercept):
@@ -299,9 +299,8 @@ def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions)
          "mass_rate": problem.mass_rate, "T": T}
     half_width = options.search_half_width * T
     lo, hi = t_s0 - half_width, t_s0 + half_width
-    ocp0 = _arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration)[0]
-    z0 = _guess_z(ocp0, grid, dv_impulse / jnp.where(dv > 0.0, dv, 1.0))
-    lam0 = _first_multipliers(ocp0, grid, z0)
+    z0 = _guess_z(_arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration)[0], grid,
+                  dv_impulse / jnp.where(dv > 0.0, dv, 1.0))
 
     def cond(c):
         k, t_a, _, t_b, _, _, _, st = c[:8]
@@ -316,13 +315,13 @@ def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions)
         probe = t_b - jnp.sign(g_b) * 1.0                # 1 s downhill of eq. (2)'s start
         t_new = jnp.clip(jnp.select([k == 0, k == 1], [t_s0, probe], secant), lo, hi)
         z, lam, st, g, miss, res, n_solves, n_inner = _solve_arc(
-            p, grid, t_new, z, lam, problem.max_duration, options)
+            p, grid, t_new, z, lam, problem.max_duration, options, k == 0)
         return (k + 1, t_b, g_b, t_new, g, z, lam, st, miss, res, solves + n_solves,
                 inner + n_inner)
 
     zero = jnp.asarray(0.0)
     init = (jnp.asarray(0, jnp.int32), t_s0, zero, t_s0, zero, z0,
-            lam0, jnp.asarray(Status.SUCCESS, jnp.int32), zero,
+            jnp.zeros(n_multipliers(grid)), jnp.asarray(Status.SUCCESS, jnp.int32), zero,
             jnp.zeros(3), jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32))
     # no search without a seed that fits (unbatched, the branch is skipped)
     k, t_a, _, t_s, g, z, lam, status, miss, res, n_solves, inner = jax.lax.cond(
