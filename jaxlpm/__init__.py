@@ -2,13 +2,16 @@
 
 Frames and units at the interface: LVLH relative states [x, y, z, vx, vy, vz] in m and m/s
 (x radial outward, y along-track, z orbit normal), controls in m/s^2, times in s since the
-start of the transfer, angles in rad. float64 only: enable it with
+start of the transfer, angles in rad; the J2 intercepts (`ImpulsiveIntercept`,
+`FiniteBurnIntercept`) are posed in the Earth-centred inertial frame (equatorial), their
+`Solution.frame` "inertial". float64 only: enable it with
 jax.config.update("jax_enable_x64", True).
 
 A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTransfer`,
-`MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points;
-`segmented_lgr`), `solve(problem, grid)` -> `Solution`, `verify.fly(solution)`, `batch`
-(sweeps, Monte Carlo), `lambert`, `Status`.
+`MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`, `ImpulsiveIntercept`,
+`FiniteBurnIntercept`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `segmented_lgr`),
+`solve(problem, grid)` -> `Solution`, `verify.fly(solution)`, `batch` (sweeps, Monte Carlo),
+`lambert`, `Status`.
 """
 
 from . import _cpu_runtime
@@ -19,30 +22,31 @@ from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
 from .collocation.segments import (SegmentedMesh, aligned_breaks, segmented_lgr,  # noqa: E402
                                    uniform_breaks)
+from .nlp import ALOptions, HomotopyOptions, NewtonOptions, OptimalControlProblem  # noqa: E402
 from .orbits import KeplerOrbit  # noqa: E402
 from .orbits.lambert import LambertSolution, lambert  # noqa: E402
-from .nlp import ALOptions, HomotopyOptions, NewtonOptions, OptimalControlProblem  # noqa: E402
-from .problems import EnergyOptimalTransfer, MinimumTimeTransfer  # noqa: E402
+from .problems import (EnergyOptimalTransfer, FiniteBurnIntercept,  # noqa: E402
+                       ImpulsiveIntercept, LQRTransfer, MinimumTimeTransfer)
 from .problems.fuel_optimal import FuelOptimalTransfer  # noqa: E402
-from .status import Status, describe  # noqa: E402
 from .solution import Solution, SolveError  # noqa: E402
 from .solvers import solve  # noqa: E402
+from .solvers.finite_burn import FiniteBurnOptions  # noqa: E402
 from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # noqa: E402
                                    refine_fuel_optimal, switching_function, switching_times)
-from .problems.lqr import LQRTransfer  # noqa: E402
 from .solvers.lqr import hcw_lqr  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
+from .status import Status, describe  # noqa: E402
 from . import batch, nlp, verify  # noqa: E402
 
 __version__ = "0.2.0"
 
 __all__ = [
-    "ALOptions", "CareSolution", "EnergyOptimalTransfer", "FuelOptimalTransfer",
-    "Grid", "HomotopyOptions", "KeplerOrbit", "LambertSolution", "MinimumTimeTransfer",
-    "NewtonOptions", "OptimalControlProblem", "SegmentedMesh", "Solution", "SolveError",
-    "Status", "__version__", "aligned_breaks", "batch", "burn_arcs", "care", "constants", "describe",
-    "hcw_lqr", "indirect_fuel_optimal", "LQRTransfer",
-    "lambert", "lg", "lgl", "lgr", "make_grid", "nlp", "primer", "refine_fuel_optimal",
-    "segmented_lgr", "solve", "switching_function", "switching_times", "uniform_breaks",
-    "verify",
+    "ALOptions", "CareSolution", "EnergyOptimalTransfer", "FiniteBurnIntercept",
+    "FiniteBurnOptions", "FuelOptimalTransfer", "Grid", "HomotopyOptions",
+    "ImpulsiveIntercept", "KeplerOrbit", "LQRTransfer", "LambertSolution",
+    "MinimumTimeTransfer", "NewtonOptions", "OptimalControlProblem", "SegmentedMesh",
+    "Solution", "SolveError", "Status", "__version__", "aligned_breaks", "batch", "burn_arcs",
+    "care", "constants", "describe", "hcw_lqr", "indirect_fuel_optimal", "lambert", "lg",
+    "lgl", "lgr", "make_grid", "nlp", "primer", "refine_fuel_optimal", "segmented_lgr",
+    "solve", "switching_function", "switching_times", "uniform_breaks", "verify",
 ]

@@ -44,17 +44,17 @@ def _rotate_towards(u, w, angle):
     return np.cos(angle)[:, None] * u + np.sin(angle)[:, None] * p
 
 
-def lagrange_tof(x, lam, revs):
+def lagrange_tof(x, lam, revolutions):
     """Nondimensional T(x) of an ellipse (|x| < 1) from Lagrange's equation with a = 1/(1-x^2),
     alpha = 2 acos x, beta = 2 asin(lambda sqrt(1 - x^2)): T = a^(3/2) [alpha - sin alpha -
     (beta - sin beta) + 2 pi M] / 2, written independently of the solver's Lancaster form."""
     a = 1.0 / (1.0 - x * x)
     alpha = 2.0 * np.arccos(x)
     beta = 2.0 * np.arcsin(lam * np.sqrt(1.0 - x * x))
-    return a**1.5 * ((alpha - np.sin(alpha)) - (beta - np.sin(beta)) + 2.0 * PI * revs) / 2.0
+    return a**1.5 * ((alpha - np.sin(alpha)) - (beta - np.sin(beta)) + 2.0 * PI * revolutions) / 2.0
 
 
-def reference_min_tof(r1, r2, revs, prograde):
+def reference_min_tof(r1, r2, revolutions, prograde):
     """M-revolution minimum time of flight (s) by bounded scalar minimisation of Lagrange's T."""
     r1n, r2n = np.linalg.norm(r1), np.linalg.norm(r2)
     c = np.linalg.norm(r2 - r1)
@@ -62,7 +62,8 @@ def reference_min_tof(r1, r2, revs, prograde):
     lam = np.sqrt(1.0 - c / s)
     short = (np.cross(r1, r2)[2] >= 0.0) == prograde      # angle < pi the chosen way round
     lam = lam if short else -lam
-    res = minimize_scalar(lambda x: lagrange_tof(x, lam, revs), bounds=(-1 + 1e-12, 1 - 1e-12),
+    res = minimize_scalar(lambda x: lagrange_tof(x, lam, revolutions),
+                          bounds=(-1 + 1e-12, 1 - 1e-12),
                           method="bounded", options={"xatol": 1e-12})
     return res.fun / np.sqrt(2.0 * MU / s**3)
 
@@ -89,12 +90,12 @@ def _make_batch():
     u1 = _unit(rng, n)
     r1 = u1 * rng.uniform(6.6e6, 4.2e7, (n, 1))
     r2 = _unit(rng, n) * rng.uniform(6.6e6, 4.2e7, (n, 1))
-    revs = rng.integers(0, 4, n)
+    revolutions = rng.integers(0, 4, n)
     branch = rng.integers(0, 2, n)
     prograde = rng.integers(0, 2, n).astype(bool)
     rmax = np.maximum(np.linalg.norm(r1, axis=1), np.linalg.norm(r2, axis=1))
     period = 2 * PI * np.sqrt(rmax**3 / MU)
-    tof = period * (revs + 1) * rng.uniform(0.15, 1.5, n)
+    tof = period * (revolutions + 1) * rng.uniform(0.15, 1.5, n)
     groups = {"random": np.arange(n)}
     # near pi: transfer angles pi - delta (delta > 1e-6 solvable; below, no plane: SINGULAR)
     deltas = np.array([1e-2, 1e-4, 1e-5, 3e-6, 5e-7, 0.0])
@@ -123,7 +124,7 @@ def _make_batch():
         r1=cat(r1, base, r1_c, np.repeat(ra[None], kp, 0)),
         r2=cat(r2, r2_pi, r2_c, np.repeat(rb[None], kp, 0)),
         tof=cat(tof, 4.0e4 * (m_pi + 1), [3.0e4], tofs_p),
-        revs=cat(revs, m_pi, [0], np.zeros(kp, int)),
+        revolutions=cat(revolutions, m_pi, [0], np.zeros(kp, int)),
         branch=cat(branch, np.tile([0, 1], k // 2), [0], np.zeros(kp, int)),
         prograde=cat(prograde, np.ones(k, bool), [True], np.ones(kp, bool)),
     )
@@ -134,7 +135,7 @@ def _make_batch():
 def batch():
     data, groups, deltas = _make_batch()
     solve = jax.jit(jax.vmap(lambda r1, r2, t, m, b, p: lambert(r1, r2, t, m, b, p)))
-    sol = solve(data["r1"], data["r2"], data["tof"], data["revs"], data["branch"],
+    sol = solve(data["r1"], data["r2"], data["tof"], data["revolutions"], data["branch"],
                 data["prograde"])
     sol = jax.tree_util.tree_map(np.asarray, sol)
     fly = jax.jit(jax.vmap(_kepler_fly))
@@ -148,7 +149,7 @@ def test_random_geometries_hit_r2(batch):
     assert set(np.unique(st)) <= {Status.SUCCESS, Status.INFEASIBLE}
     ok = idx[st == Status.SUCCESS]
     assert len(ok) > 150                                   # most of the batch is feasible
-    assert np.all(sol.status[idx][data["revs"][idx] == 0] == Status.SUCCESS)
+    assert np.all(sol.status[idx][data["revolutions"][idx] == 0] == Status.SUCCESS)
     v1 = sol.v1[ok]
     energy = 0.5 * np.sum(v1**2, 1) - MU / np.linalg.norm(data["r1"][ok], axis=1)
     ell = ok[energy < 0]
@@ -159,7 +160,7 @@ def test_random_geometries_hit_r2(batch):
     assert np.max(dv) < HIT_RTOL
     # M full revolutions: the flight takes between M and M + 1 periods of the transfer orbit
     periods = data["tof"][ell] / (2 * PI * np.sqrt(a**3 / MU))
-    assert np.all(np.floor(periods) == data["revs"][ell])
+    assert np.all(np.floor(periods) == data["revolutions"][ell])
     # direction: angular momentum z >= 0 for prograde transfers, < 0 for retrograde
     hz = np.cross(data["r1"][ok], v1)[:, 2]
     assert np.all((hz >= 0) == data["prograde"][ok])
@@ -172,7 +173,7 @@ def test_random_geometries_hit_r2(batch):
 def test_branches_are_distinct_solutions(batch):
     data, groups, _, sol, _ = batch
     idx = groups["random"]
-    multi = idx[(data["revs"][idx] > 0) & (sol.status[idx] == Status.SUCCESS)]
+    multi = idx[(data["revolutions"][idx] > 0) & (sol.status[idx] == Status.SUCCESS)]
     left, right = multi[data["branch"][multi] == 0], multi[data["branch"][multi] == 1]
     assert len(left) > 20 and len(right) > 20
     # Izzo's x: left branch below x_Tmin, right above; x_Tmin lies in (-1, 1), so on average
@@ -185,10 +186,10 @@ def test_infeasible_revolutions_match_minimum_time(batch):
     """INFEASIBLE exactly when tof < T_min(M), T_min from the independent Lagrange form."""
     data, groups, _, sol, _ = batch
     idx = groups["random"]
-    multi = idx[data["revs"][idx] > 0]
+    multi = idx[data["revolutions"][idx] > 0]
     assert np.any(sol.status[multi] == Status.INFEASIBLE)
     for i in multi:
-        tmin = reference_min_tof(data["r1"][i], data["r2"][i], data["revs"][i],
+        tmin = reference_min_tof(data["r1"][i], data["r2"][i], data["revolutions"][i],
                                  data["prograde"][i])
         # bounded Brent finds T_min to ~1e-10 relative (flat minimum: x to 1e-6, T to x^2)
         margin = abs(data["tof"][i] / tmin - 1.0)
@@ -226,28 +227,28 @@ def test_near_parabolic(batch):
         assert np.linalg.norm(v_end - sol.v2[i]) < HIT_RTOL * np.linalg.norm(sol.v2[i])
 
 
-def _velocities(r1, r2, tof, revs, branch):
-    s = lambert(r1, r2, tof, revs, branch)
+def _velocities(r1, r2, tof, revolutions, branch):
+    s = lambert(r1, r2, tof, revolutions, branch)
     return jnp.concatenate([s.v1, s.v2]), s.status
 
 
-# revs and branch are traced arguments: one compilation serves every case below
+# revolutions and branch are traced arguments: one compilation serves every case below
 _vel = jax.jit(_velocities)
 _jac = jax.jit(jax.jacrev(lambda *a: _velocities(*a)[0], argnums=(0, 1, 2)))
 
 
-@pytest.mark.parametrize("revs,branch", [(0, 0), (2, 1), (1, 0)])
-def test_gradient_matches_central_differences(revs, branch):
+@pytest.mark.parametrize("revolutions,branch", [(0, 0), (2, 1), (1, 0)])
+def test_gradient_matches_central_differences(revolutions, branch):
     """Implicit derivatives of (v1, v2) w.r.t. r1, r2 and tof against central differences.
 
     Steps: 10 m on positions of ~1e7 m and 1e-6 tof, so the truncation error h^2 |v'''| / 6 is
     ~1e-12 relative and rounding eps |v| / h ~ 1e-9 relative; 1e-6 bounds both."""
     r1 = np.array([7.0e6, 1.0e5, 2.0e4])
     r2 = 1.2e7 * np.array([np.cos(2.0), np.sin(2.0), 0.3])
-    tof = 5.0e3 + 4.0e4 * revs
-    f = lambda a, b, t: np.asarray(_vel(a, b, t, revs, branch)[0])
-    assert int(_vel(r1, r2, tof, revs, branch)[1]) == Status.SUCCESS
-    jr1, jr2, jt = _jac(r1, r2, tof, revs, branch)
+    tof = 5.0e3 + 4.0e4 * revolutions
+    f = lambda a, b, t: np.asarray(_vel(a, b, t, revolutions, branch)[0])
+    assert int(_vel(r1, r2, tof, revolutions, branch)[1]) == Status.SUCCESS
+    jr1, jr2, jt = _jac(r1, r2, tof, revolutions, branch)
     h, ht = 10.0, 1e-6 * tof
     fd1 = np.stack([(f(r1 + h * e, r2, tof) - f(r1 - h * e, r2, tof)) / (2 * h)
                     for e in np.eye(3)], 1)

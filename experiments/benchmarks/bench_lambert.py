@@ -86,7 +86,8 @@ def transfer_angle(r1, r2):
 
 
 def make_problems(n, seed, share_near_pi, share_near_zero, share_parabolic):
-    """Dict of arrays r1 (n, 3), r2, tof, revs, branch, prograde, group (index into GROUPS)."""
+    """Dict of arrays r1 (n, 3), r2, tof, revolutions, branch, prograde, group (index into
+    GROUPS)."""
     rng = np.random.default_rng(seed)
     counts = [int(round(n * s)) for s in (share_near_pi, share_near_zero, share_parabolic)]
     n_rand = n - sum(counts)
@@ -106,16 +107,16 @@ def make_problems(n, seed, share_near_pi, share_near_zero, share_parabolic):
             exact = idx[: idx.size // 10]
             u2[exact] = -u1[exact]
     r2 = u2 * r2n
-    revs = rng.integers(0, 4, n)
+    revolutions = rng.integers(0, 4, n)
     branch = rng.integers(0, 2, n)
     prograde = rng.integers(0, 2, n).astype(bool)
     s, _ = _semi_perimeter(r1, r2)
     p_m = 2 * PI * np.sqrt((s / 2) ** 3 / MU)
-    tof = np.where(revs == 0, p_m * 10.0 ** rng.uniform(-1.5, 0.3, n),
-                   p_m * (revs + rng.uniform(0.0, 1.5, n)))
+    tof = np.where(revolutions == 0, p_m * 10.0 ** rng.uniform(-1.5, 0.3, n),
+                   p_m * (revolutions + rng.uniform(0.0, 1.5, n)))
     # near parabolic: M = 0 around Euler's parabolic time of the chosen direction
     idx = np.flatnonzero(group == 3)
-    revs[idx] = 0
+    revolutions[idx] = 0
     s_p, c_p = s[idx], _semi_perimeter(r1[idx], r2[idx])[1]
     lam = np.sqrt(np.maximum(1.0 - c_p / s_p, 0.0))
     long_way = (np.cross(r1[idx], r2[idx])[:, 2] >= 0.0) != prograde[idx]
@@ -123,7 +124,7 @@ def make_problems(n, seed, share_near_pi, share_near_zero, share_parabolic):
     t_par = 2.0 / 3.0 * (1.0 - lam**3) / np.sqrt(2 * MU / s_p**3)
     sign = np.where(rng.integers(0, 2, idx.size) == 1, 1.0, -1.0)
     tof[idx] = t_par * (1.0 + sign * 10.0 ** rng.uniform(-12, -2, idx.size))
-    return dict(r1=r1, r2=r2, tof=tof, revs=revs, branch=branch, prograde=prograde,
+    return dict(r1=r1, r2=r2, tof=tof, revolutions=revolutions, branch=branch, prograde=prograde,
                 group=group)
 
 
@@ -258,17 +259,19 @@ def main(argv=None):
                                      near_parabolic=args.share_parabolic),
                          group_sizes={g: int(np.sum(prob["group"] == i))
                                       for i, g in enumerate(GROUPS)},
-                         revs_counts={int(m): int(np.sum(prob["revs"] == m)) for m in range(4)},
+                         revolutions_counts={int(m): int(np.sum(prob["revolutions"] == m))
+                                             for m in range(4)},
                          within_1e6_of_pi=int(near_pi.sum()),
                          within_1e6_of_zero=int(near_zero.sum()),
                          solver_degenerate_angle=DEGENERATE_ANGLE, excluded_within=EXCLUDE),
                machine=machine_info())
-    print(f"{args.n} problems: groups {res['case']['group_sizes']}, M {res['case']['revs_counts']}"
-          f", {near_pi.sum()} within 1e-6 rad of pi, {near_zero.sum()} of 0", flush=True)
+    print(f"{args.n} problems: groups {res['case']['group_sizes']}, "
+          f"M {res['case']['revolutions_counts']}, {near_pi.sum()} within 1e-6 rad of pi, "
+          f"{near_zero.sum()} of 0", flush=True)
 
     # 1. solve ---------------------------------------------------------------------------------
     fn = jax.vmap(lambda r1, r2, t, m, b, p: lambert(r1, r2, t, m, b, p, MU))
-    inputs = tuple(jnp.asarray(prob[k]) for k in ("r1", "r2", "tof", "revs", "branch",
+    inputs = tuple(jnp.asarray(prob[k]) for k in ("r1", "r2", "tof", "revolutions", "branch",
                                                   "prograde"))
     compiled, comp = cold_compile(fn, *inputs, repeats=args.compile_repeats)
     sol = jax.block_until_ready(compiled(*inputs))
@@ -294,21 +297,22 @@ def main(argv=None):
     res["status"] = dict(all=_counts(st),
                          by_group={g: _counts(st[prob["group"] == i]) for i, g in
                                    enumerate(GROUPS) if np.any(prob["group"] == i)},
-                         by_revs={str(m): _counts(st[(prob["revs"] == m)
+                         by_revolutions={str(m): _counts(st[(prob["revolutions"] == m)
                                                      & (prob["group"] == 0)])
                                   for m in range(4)},
                          within_1e6_of_pi=_counts(st[near_pi]),
                          within_1e6_of_zero=_counts(st[near_zero]))
     degenerate = near_pi | near_zero
     checks["singular_iff_angle_within_1e-6"] = int(np.sum((st == Status.SINGULAR) != degenerate))
-    checks["infeasible_with_M0"] = int(np.sum((st == Status.INFEASIBLE) & (prob["revs"] == 0)))
+    checks["infeasible_with_M0"] = int(np.sum((st == Status.INFEASIBLE)
+                                              & (prob["revolutions"] == 0)))
     checks["failed_with_nonzero_velocity"] = int(np.sum(~ok & (np.abs(sol.v1).sum(1) > 0)))
     checks["nonfinite_velocity"] = int(np.sum(~np.isfinite(sol.v1).all(1)
                                               | ~np.isfinite(sol.v2).all(1)))
     print(f"[status] {res['status']['all']}; within 1e-6 of pi: "
           f"{res['status']['within_1e6_of_pi']}", flush=True)
     for m in range(4):
-        print(f"  random, M = {m}: {res['status']['by_revs'][str(m)]}")
+        print(f"  random, M = {m}: {res['status']['by_revolutions'][str(m)]}")
 
     # 3. verification by the universal-variable propagator ---------------------------------------
     fly = jax.jit(jax.vmap(kepler_universal))
@@ -332,7 +336,8 @@ def main(argv=None):
     r_peri = p_semi / (1.0 + ecc)
 
     def member(i):
-        return dict(index=int(i), group=GROUPS[prob["group"][i]], revs=int(prob["revs"][i]),
+        return dict(index=int(i), group=GROUPS[prob["group"][i]],
+                    revolutions=int(prob["revolutions"][i]),
                     branch=int(prob["branch"][i]), prograde=bool(prob["prograde"][i]),
                     r1=prob["r1"][i].tolist(), r2=prob["r2"][i].tolist(),
                     tof=float(prob["tof"][i]), angle=float(angle[i]), x=float(sol.x[i]),
@@ -350,7 +355,7 @@ def main(argv=None):
         velocity_rel=_dist(vel_err[verified]),
         position_rel_by_group={g: _dist(pos_err[verified & (prob["group"] == i)])
                                for i, g in enumerate(GROUPS)},
-        position_rel_by_revs={str(m): _dist(pos_err[verified & (prob["revs"] == m)])
+        position_rel_by_revolutions={str(m): _dist(pos_err[verified & (prob["revolutions"] == m)])
                               for m in range(4)},
         position_rel_hyperbolic=_dist(pos_err[verified & ~ell]),
         position_rel_by_distance_from_pi={
@@ -391,8 +396,8 @@ def main(argv=None):
     checks["direction_wrong"] = int(np.sum(ok & ((hz >= 0) != prob["prograde"])))
     a = 1.0 / np.where(ell, -2.0 * energy / MU, 1.0)
     periods = prob["tof"] / (2 * PI * np.sqrt(a**3 / MU))
-    checks["revolutions_wrong"] = int(np.sum(ok & ell & (np.floor(periods) != prob["revs"])))
-    checks["hyperbolic_with_M_ge_1"] = int(np.sum(ok & ~ell & (prob["revs"] > 0)))
+    checks["revolutions_wrong"] = int(np.sum(ok & ell & (np.floor(periods) != prob["revolutions"])))
+    checks["hyperbolic_with_M_ge_1"] = int(np.sum(ok & ~ell & (prob["revolutions"] > 0)))
     res["counts"] = dict(success_elliptic=int(np.sum(ok & ell)),
                          success_hyperbolic=int(np.sum(ok & ~ell)))
 
@@ -416,7 +421,8 @@ def main(argv=None):
             members=int(sub.size), seconds_incl_compile=t_dfx, diffrax_ok=int(okd.sum()),
             diffrax_failed=[member(i) for i in sub[~okd]],
             uv_vs_diffrax=_dist(d_uv[okd]), diffrax_vs_r2=_dist(d_r2[okd]),
-            revs_counts={int(m): int(np.sum(prob["revs"][sub] == m)) for m in range(4)},
+            revolutions_counts={int(m): int(np.sum(prob["revolutions"][sub] == m))
+                                for m in range(4)},
             hyperbolic=int(np.sum(~ell[sub])),
             worst_ten=[dict(index=int(i), uv_vs_diffrax=float(d_uv[k]),
                             diffrax_vs_r2=float(d_r2[k]), uv_vs_r2=float(pos_err[i]))
@@ -424,7 +430,7 @@ def main(argv=None):
             largest_disagreements=[
                 dict(index=int(sub[k]), uv_vs_diffrax=float(d_uv[k]),
                      diffrax_vs_r2=float(d_r2[k]), uv_vs_r2=float(pos_err[sub[k]]),
-                     revs=int(prob["revs"][sub[k]]), hyperbolic=bool(~ell[sub[k]]),
+                     revolutions=int(prob["revolutions"][sub[k]]), hyperbolic=bool(~ell[sub[k]]),
                      x=float(sol.x[sub[k]]), e=float(ecc[sub[k]]),
                      r_perigee=float(r_peri[sub[k]]), group=GROUPS[prob["group"][sub[k]]])
                 for k in np.argsort(-d_uv_ok)[:5]])
@@ -434,18 +440,19 @@ def main(argv=None):
               f"{c['uv_vs_diffrax']['max']:.2e}; |r_dopri8 - r2| / |r2| max "
               f"{c['diffrax_vs_r2']['max']:.2e} (over the {c['diffrax_ok']} finished)", flush=True)
         for m in c["diffrax_failed"]:
-            print(f"  diffrax did not finish: member {m['index']} ({m['group']}, M = {m['revs']}, "
-                  f"e = {m['e']:.12f}, perigee radius {m['r_perigee']:.2e} m); universal "
-                  f"variable: position_rel {m['position_rel']:.1e}")
+            print(f"  diffrax did not finish: member {m['index']} ({m['group']}, "
+                  f"M = {m['revolutions']}, e = {m['e']:.12f}, perigee radius "
+                  f"{m['r_perigee']:.2e} m); universal variable: position_rel "
+                  f"{m['position_rel']:.1e}")
 
     # 5. INFEASIBLE against Lagrange's minimum time ------------------------------------------------
     if args.n_tmin > 0:
-        multi = np.flatnonzero((prob["revs"] > 0) & ~degenerate & (prob["group"] == 0))
+        multi = np.flatnonzero((prob["revolutions"] > 0) & ~degenerate & (prob["group"] == 0))
         sub = multi[: args.n_tmin]
         wrong, ambiguous = [], 0
         t0 = time.perf_counter()
         for i in sub:
-            tmin = reference_min_tof(prob["r1"][i], prob["r2"][i], prob["revs"][i],
+            tmin = reference_min_tof(prob["r1"][i], prob["r2"][i], prob["revolutions"][i],
                                      prob["prograde"][i])
             if abs(prob["tof"][i] / tmin - 1.0) <= 1e-8:
                 ambiguous += 1

@@ -14,14 +14,18 @@ Its quirks live here:
   Its misses alternate (small, large, small, ...) and grow: the first re-aim is its best
   iterate, and matches the published rough miss; later ones are in the JSON history.
 - Finite burn (Table 3): 800 kg, Isp 260 s, 200 N, minimum burn duration by LGL collocation
-  of the burn arc with 5, 10 and 20 nodes (`jaxlpm.solvers.finite_burn`), initialised by eq. 2
-  from the exact impulsive solution at 24255.706 s. Table 3 is not self-consistent: its node
-  times span 260.25 s, which burns 20.41 kg at 200 N and 260 s, not the printed 21.184 kg
+  of the burn arc with 5, 10 and 20 nodes (`FiniteBurnIntercept` on lgl(5), lgl(10), lgl(20):
+  the paper's "n nodes" are the n points of lgl(n)), initialised by eq. 2 from the exact
+  impulsive solution at 24255.706 s. Table 3 is not self-consistent: its node times span
+  260.25 s, which burns 20.41 kg at 200 N and 260 s, not the printed 21.184 kg
   (`finite_burn_consistency`).
 
-Every solution is flown by an integrator independent of the solvers' (diffrax Tsit5,
-`jaxlpm.verify.inertial`): the impulsive ones from the burn point, the finite burns from t = 0
-through the interpolated thrust direction and the coast.
+The headline numbers come through the public API: `jaxlpm.solve` of an `ImpulsiveIntercept`
+(the burn at 24255.706 s; the burn time optimised in a window) and of a `FiniteBurnIntercept`,
+each flown from t = 0 by `jaxlpm.verify.fly` (diffrax Tsit5, independent of the solvers'
+Dopri8). The paper's own procedure (the Lambert candidates, the aim-point iteration as printed
+and the rough solution's flight from the burn point) uses the lower-level functions
+(`jaxlpm.solvers.impulsive`, `jaxlpm.verify.inertial`).
 """
 
 import time
@@ -30,16 +34,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import verify
+from ..collocation import lgl
 from ..constants import G0, J2_EARTH, MU_EARTH, R_EARTH
 from ..dynamics.propagation import propagate
 from ..orbits import KeplerOrbit, elements_to_state
 from ..orbits.lambert import lambert
-from ..collocation import lgl
-from ..solvers.finite_burn import FiniteBurnProblem, finite_burn
-from ..solvers.impulsive import (InterceptProblem, aim_point_iteration, burn_state,
-                                 lambert_candidates, optimise_burn_time, shoot)
+from ..problems.intercept import FiniteBurnIntercept, ImpulsiveIntercept
+from ..solvers import solve
+from ..solvers.impulsive import aim_point_iteration, burn_state, lambert_candidates
 from ..status import Status
-from ..verify.inertial import direction_interpolant, fly, fly_finite_burn
+from ..verify.inertial import fly, fly_burn
 
 NAME = "tan2011"
 TITLE = ("Tan, Yan, Zhou & Tang 2011: J2 long-range intercept (Lambert + J2 aim-point "
@@ -55,7 +60,9 @@ R_BURN = (-41288.384e3, -6348.081e3, 0.0)
 MASS, ISP, THRUST = 800.0, 260.0, 200.0
 MAX_REVS = 5
 ROUGH_ITERATIONS = 8
-NODES = (5, 10, 20)                   # the paper's finite-burn node counts (Fig. 1)
+NODES = (5, 10, 20)                   # the paper's finite-burn node counts (Fig. 1): lgl(n) points
+NODE_CONVENTION = ("nodes = the paper's node count = the number of points of the LGL grid "
+                   "lgl(n) (polynomial degree n - 1); 'points' repeats it in jaxlpm's convention")
 
 PUBLISHED = {
     "source": "Tan, Yan, Zhou, Tang, Systems Engineering and Electronics 33(6), 2011, "
@@ -95,16 +102,22 @@ def recover_elements(iterations: int = 8):
     return el, float(jnp.linalg.norm(f(p)))
 
 
-def problem(elements=None) -> InterceptProblem:
+def problem(elements=None, burn_time=T_BURN, **kwargs) -> ImpulsiveIntercept:
+    """The impulsive intercept of Tables 1-2 (printed or given elements), the burn at
+    `burn_time` (s, or a window [t_lo, t_hi]); the Lambert seed's revolutions and branch are
+    chosen (least |dv| over M = 0..MAX_REVS) unless given in kwargs."""
     el = ELEMENTS_PRINTED if elements is None else elements
     x0 = jnp.concatenate(elements_to_state(_orbit(el)))
-    return InterceptProblem(state0=x0, t_f=jnp.asarray(T_F), r_target=jnp.asarray(R_F))
+    return ImpulsiveIntercept(state0=x0, duration=jnp.asarray(T_F), r_target=jnp.asarray(R_F),
+                              burn_time=jnp.asarray(burn_time), max_revolutions=MAX_REVS,
+                              **kwargs)
 
 
 def verify_miss(r_burn, v_post, t_burn, samples=0):
     """Miss |r(t_f) - R_f| (m) of the post-burn J2 coast by the independent integrator
     (diffrax Tsit5, rtol 1e-13: `jaxlpm.verify.inertial.fly`), and with samples > 0 the
-    states [r, v, m] (samples, 7) at evenly spaced times (else None)."""
+    states [r, v, m] (samples, 7) at evenly spaced times (else None). For the rough solution
+    and the figure (the paper flies from the burn point)."""
     state = jnp.asarray(np.r_[r_burn, v_post])
     ts = jnp.linspace(t_burn, T_F, samples) if samples else None
     ys, _ = _fly(state, MASS, t_burn, T_F, ts=ts)
@@ -114,44 +127,60 @@ def verify_miss(r_burn, v_post, t_burn, samples=0):
 
 
 _fly = jax.jit(fly)
-_fly_finite_burn = jax.jit(fly_finite_burn, static_argnames="n_save")
+_fly_burn = jax.jit(fly_burn)
 
 
-def finite_burn_problem(prob: InterceptProblem) -> FiniteBurnProblem:
-    """The paper's engine on the intercept: 200 N, 800 kg, Isp 260 s."""
-    return FiniteBurnProblem(prob, jnp.asarray(THRUST), jnp.asarray(MASS), jnp.asarray(ISP))
+def finite_burn_problem(prob: ImpulsiveIntercept) -> FiniteBurnIntercept:
+    """The paper's engine on the intercept: 200 N, 800 kg, Isp 260 s (seeded by eq. (2) from
+    the intercept's impulsive solution)."""
+    return FiniteBurnIntercept(prob, jnp.asarray(THRUST), jnp.asarray(MASS), jnp.asarray(ISP))
 
 
-def _finite_burns(prob, sh, log):
-    """Minimum-duration finite burns for NODES, initialised by eq. (2) from the exact
-    impulsive solution; each flown by the independent integrator. Returns (rows, solutions)."""
+def burn_samples(sol, n=300):
+    """(times (n,), flown [r, v, m] (n, 7)) over a finite burn by the independent integrator
+    (`jaxlpm.verify.inertial.fly_burn`, the flight of `jaxlpm.verify.fly`)."""
+    tr = sol.trajectory
+    ts = jnp.linspace(tr.t_start, tr.t_end, n)
+    states, _ = _fly_burn(tr.state0, tr.burn(), sol.duration, ts, tr.mu, tr.j2, tr.r_eq)
+    return np.asarray(ts), np.asarray(states)
+
+
+def _timed_solve(*args):
+    """(solution, first call s, steady call s): the first call includes compilation."""
+    times = []
+    for _ in range(2):
+        t = time.perf_counter()
+        sol = jax.block_until_ready(solve(*args))
+        times.append(time.perf_counter() - t)
+    return sol, times[0], times[1]
+
+
+def _finite_burns(prob, log):
+    """Minimum-duration finite burns for NODES through `jaxlpm.solve`, initialised by eq. (2)
+    from the exact impulsive solution at T_BURN; each flown from t = 0 by `jaxlpm.verify.fly`.
+    Returns (rows, solutions, burn samples)."""
     fb = finite_burn_problem(prob)
-    rows, sols = [], []
+    rows, sols, samples = [], [], []
     for n in NODES:
-        t = time.perf_counter()
-        sol = finite_burn(fb, lgl(n), sh.t_burn, sh.dv)
-        jax.block_until_ready(sol)
-        first = time.perf_counter() - t
-        t = time.perf_counter()
-        sol = finite_burn(fb, lgl(n), sh.t_burn, sh.dv)
-        jax.block_until_ready(sol)
-        steady = time.perf_counter() - t
-        miss, final, ok, _ = _fly_finite_burn(fb, sol)
-        times = np.asarray(sol.node_times)
-        row = {"nodes": n, "t_start": float(sol.t_start), "duration": float(sol.duration),
-               "t_end": float(sol.t_start + sol.duration), "fuel_kg": float(sol.fuel),
-               "miss": float(miss), "miss_collocated": float(sol.miss),
-               "flown_final_mass_kg": float(final[6]), "flight_ok": bool(ok),
-               "status": Status(int(sol.status)).name,
-               "duration_gradient": float(sol.duration_gradient),
-               "node_times": _vec(times),
-               "node_directions": np.asarray(sol.node_directions).tolist(),
-               "constraint_residual": float(sol.constraint_residual),
-               "path_residual": float(sol.path_residual),
-               "stationarity_residual": float(sol.stationarity_residual),
-               "search_iterations": int(sol.search_iterations),
-               "arc_solves": int(sol.arc_solves), "newton_iterations": int(sol.inner_iterations),
-               "first_call_s": first, "steady_call_s": steady}
+        sol, first, steady = _timed_solve(fb, lgl(n))
+        flight = verify.fly(sol)
+        ts, states = burn_samples(sol)
+        st = sol.stats
+        row = {"nodes": n, "points": n, "t_start": float(st["t_start"]),
+               "duration": float(sol.cost), "t_end": float(st["t_end"]),
+               "fuel_kg": float(st["fuel"]), "miss": float(flight.terminal_error[0]),
+               "miss_collocated": float(st["miss"]), "flown_final_mass_kg": float(states[-1, 6]),
+               "flight_ok": bool(flight.success), "status": Status(int(sol.status)).name,
+               "duration_gradient": float(st["duration_gradient"]),
+               "node_times": _vec(sol.times),
+               "node_directions": np.asarray(st["node_directions"]).tolist(),
+               "constraint_residual": float(st["constraint_residual"]),
+               "path_residual": float(st["path_residual"]),
+               "stationarity_residual": float(st["stationarity_residual"]),
+               "search_iterations": int(st["search_iterations"]),
+               "arc_solves": int(st["arc_solves"]),
+               "newton_iterations": int(st["newton_iterations"]),
+               "delta_v": float(sol.delta_v), "first_call_s": first, "steady_call_s": steady}
         log(f"finite burn, {n:>2} LGL nodes: t_s = {row['t_start']:.3f} s, D = "
             f"{row['duration']:.4f} s, fuel {row['fuel_kg']:.4f} kg, flown miss "
             f"{row['miss']:.3e} m, {row['status']} ({row['search_iterations']} t_s steps, "
@@ -159,7 +188,12 @@ def _finite_burns(prob, sh, log):
             f"compile, then {steady:.2f} s)")
         rows.append(row)
         sols.append(sol)
-    return rows, sols
+        samples.append((ts, states))
+    return rows, sols, samples
+
+
+def _status(sol) -> str:
+    return Status(int(sol.status)).name
 
 
 def _vec(x):
@@ -173,18 +207,25 @@ def compute(log=print):
     log(f"elements recovered in {time.perf_counter() - t0:.1f} s: e = {el['e']:.7f}, "
         f"argp = {el['argp'] / DEG:.6f} deg (burn-point residual {resid:.2e} m)")
     prob = problem(el)
-    pre = np.asarray(jax.jit(burn_state)(prob, T_BURN)[0])
-    rb, vb = pre[:3], pre[3:]
-    tof = T_F - T_BURN
 
-    # step 1: every two-body Lambert candidate; the least |dv| is the transfer
-    v1, revs, branch, status = jax.jit(lambert_candidates, static_argnums=3)(
-        jnp.asarray(rb), jnp.asarray(R_F), tof, MAX_REVS)
+    # the exact impulsive intercept at the paper's burn time (Newton J2 shooting from the
+    # least-|dv| two-body Lambert seed), flown from t = 0 by the independent integrator
+    t1 = time.perf_counter()
+    imp = solve(prob)
+    exact_flight = verify.fly(imp)
+    st = imp.stats
+    rb, vb = np.asarray(st["r_burn"]), np.asarray(st["v_pre"])
+    m_best, b_best = int(st["revolutions"]), int(st["branch"])
+    log(f"shooting: {int(st['newton_iterations'])} Newton steps, status {_status(imp)}, "
+        f"{time.perf_counter() - t1:.1f} s")
+
+    # step 1: every two-body Lambert candidate (the seed above is the least |dv|)
+    v1, revs, branch, status = jax.jit(lambert_candidates)(
+        jnp.asarray(rb), jnp.asarray(R_F), T_F - T_BURN, jnp.arange(MAX_REVS + 1),
+        jnp.arange(2))
     cands = [{"revolutions": int(m), "branch": ["left", "right"][int(b)], "status": int(s),
               "dv_norm": float(np.linalg.norm(np.asarray(v) - vb)) if s == 0 else None}
              for v, m, b, s in zip(v1, revs, branch, status)]
-    k = int(np.argmin([c["dv_norm"] if c["dv_norm"] is not None else np.inf for c in cands]))
-    m_best, b_best = int(revs[k]), int(branch[k])
 
     # steps 2-5, as printed and with accumulated corrections
     api = jax.jit(aim_point_iteration, static_argnums=(4, 5))
@@ -194,18 +235,13 @@ def compute(log=print):
     rough_dv = np.asarray(dv_p[1])
     rough_miss, _ = verify_miss(rb, vb + rough_dv, T_BURN)
 
-    # Newton J2 shooting on the post-burn velocity
-    t1 = time.perf_counter()
-    sh = jax.jit(shoot)(prob, T_BURN, m_best, b_best)
-    exact_miss, _ = verify_miss(rb, np.asarray(sh.v_post), T_BURN)
-    log(f"shooting: {int(sh.iterations)} Newton steps, status {Status(int(sh.status)).name}, "
-        f"{time.perf_counter() - t1:.1f} s")
-
     # burn-time optimisation: a coarse scan of the best two-body Lambert |dv| along the
-    # pre-burn coast picks the basin, then the secant on d|dv|/dt_b of the J2-exact solution
+    # pre-burn coast picks the basin, then `solve` in that window (the secant on d|dv|/dt_b
+    # of the J2-exact solution) with the same revolutions and branch
     t2 = time.perf_counter()
     ts = np.linspace(2000.0, 60000.0, 117)
     states, _ = jax.jit(propagate)(prob.state0, ts[-1], ts=ts)
+
     def _scan_one(state, t):
         sol = lambert(state[:3], prob.r_target, T_F - t, m_best, b_best)
         ok = sol.status == Status.SUCCESS
@@ -214,18 +250,18 @@ def compute(log=print):
     scan_dv = np.asarray(jax.jit(jax.vmap(_scan_one))(states, ts))
     j = int(np.argmin(scan_dv))
     lo, hi = ts[max(j - 1, 0)], ts[min(j + 1, len(ts) - 1)]
-    t_opt, dv_opt, g_opt, it_opt = jax.jit(optimise_burn_time)(prob, lo, hi, m_best, b_best)
-    sh_opt = jax.jit(shoot)(prob, t_opt, m_best, b_best)
-    opt_miss, _ = verify_miss(np.asarray(sh_opt.r_burn), np.asarray(sh_opt.v_post),
-                              float(t_opt))
-    log(f"burn-time optimisation: {int(it_opt)} secant steps, {time.perf_counter() - t2:.1f} s")
+    opt = solve(problem(el, [lo, hi], revolutions=m_best, branch=b_best))
+    opt_flight = verify.fly(opt)
+    log(f"burn-time optimisation: {int(opt.stats['search_iterations'])} secant steps, "
+        f"{time.perf_counter() - t2:.1f} s")
 
     # finite burns (Table 3), from eq. (2) about the exact impulsive solution
-    fb_rows, fb_sols = _finite_burns(prob, sh, log)
+    fb_rows, fb_sols, fb_samples = _finite_burns(prob, log)
 
-    dm = MASS * (1.0 - np.exp(-np.linalg.norm(np.asarray(sh.dv)) / (ISP * G0)))
+    dv_norm = float(imp.cost)
+    dm = float(imp.propellant(MASS, ISP))
     # Table 3's first node should lie on the pre-burn coast: compare at its time
-    node1 = np.asarray(jax.jit(burn_state)(prob, PUBLISHED["finite_burn"]["node_times"][0])[0])
+    node1 = np.asarray(imp.states(PUBLISHED["finite_burn"]["node_times"][0]))
     node_t = PUBLISHED["finite_burn"]["node_times"]
     computed = {
         "elements_printed": {k: float(v) for k, v in ELEMENTS_PRINTED.items()},
@@ -234,10 +270,10 @@ def compute(log=print):
         "burn_point_error_recovered_elements_m": resid,
         "lambert_candidates": cands,
         "impulsive": {
-            "t_burn": T_BURN, "r_burn": _vec(rb), "dv": _vec(sh.dv),
-            "dv_norm": float(np.linalg.norm(np.asarray(sh.dv))), "miss": exact_miss,
-            "miss_newton_diffrax": float(sh.miss), "newton_iterations": int(sh.iterations),
-            "status": Status(int(sh.status)).name,
+            "t_burn": float(st["t_burn"]), "r_burn": _vec(rb), "dv": _vec(st["dv"]),
+            "dv_norm": dv_norm, "miss": float(exact_flight.terminal_error[0]),
+            "miss_newton_diffrax": float(st["miss"]),
+            "newton_iterations": int(st["newton_iterations"]), "status": _status(imp),
             "rough_dv": _vec(rough_dv), "rough_miss": rough_miss,
             "revolutions": m_best, "branch": ["left", "right"][b_best],
             "two_body_lambert_dv": _vec(dv_p[0]), "two_body_lambert_miss": float(miss_p[0]),
@@ -245,12 +281,16 @@ def compute(log=print):
             "aim_iteration_accumulated_miss": _vec(miss_a),
             "aim_iteration_accumulated_dv": _vec(dv_a[-1]),
         },
-        "optimal_burn_time": {"t_burn": float(t_opt), "dv_norm": float(dv_opt),
-                              "dv": _vec(sh_opt.dv), "gradient_at_optimum": float(g_opt),
-                              "miss": opt_miss, "secant_iterations": int(it_opt),
+        "optimal_burn_time": {"t_burn": float(opt.stats["t_burn"]), "dv_norm": float(opt.cost),
+                              "dv": _vec(opt.stats["dv"]),
+                              "gradient_at_optimum": float(opt.stats["burn_time_gradient"]),
+                              "miss": float(opt_flight.terminal_error[0]),
+                              "secant_iterations": int(opt.stats["search_iterations"]),
+                              "status": _status(opt),
                               "scan_bracket": [float(lo), float(hi)]},
+        "node_count_convention": NODE_CONVENTION,
         "finite_burn": {k: fb_rows[-1][k] for k in ("t_start", "duration", "fuel_kg", "miss",
-                                                     "nodes", "t_end", "status",
+                                                     "nodes", "points", "t_end", "status",
                                                      "miss_collocated")},
         "finite_burn_by_nodes": fb_rows,
         "finite_burn_consistency": {
@@ -267,15 +307,12 @@ def compute(log=print):
                                               * (node_t[-1] - node_t[0])
                                               * np.asarray(lgl(5).points)),
             "fuel_rocket_equation_for_impulsive_dv_kg": float(dm),
-            "fuel_rocket_equation_for_optimal_dv_kg": float(
-                MASS * (1.0 - np.exp(-float(dv_opt) / (ISP * G0)))),
-            "eq2_burn_interval_s": [T_BURN - MASS * float(np.linalg.norm(np.asarray(sh.dv)))
-                                    / (2 * THRUST),
-                                    T_BURN + MASS * float(np.linalg.norm(np.asarray(sh.dv)))
-                                    / (2 * THRUST)],
+            "fuel_rocket_equation_for_optimal_dv_kg": float(opt.propellant(MASS, ISP)),
+            "eq2_burn_interval_s": [T_BURN - MASS * dv_norm / (2 * THRUST),
+                                    T_BURN + MASS * dv_norm / (2 * THRUST)],
         },
     }
-    return prob, (sh, fb_sols), computed
+    return prob, (imp, fb_sols, fb_samples), computed
 
 
 NOTES = [
@@ -345,16 +382,16 @@ def figures(prob, data, computed, out_dir):
 
     from .plots import _save
 
-    sh, fb_sols = data
+    imp, fb_sols, fb_samples = data
     c = computed["impulsive"]
-    _, ys = verify_miss(np.asarray(sh.r_burn), np.asarray(sh.v_post), c["t_burn"], 2000)
-    ts = np.linspace(0.0, c["t_burn"], 400)
-    pre, _ = jax.jit(propagate)(prob.state0, c["t_burn"], ts=ts)
+    r_burn = np.asarray(imp.stats["r_burn"])
+    _, ys = verify_miss(r_burn, np.asarray(imp.stats["v_post"]), c["t_burn"], 2000)
+    pre = imp.states(np.linspace(0.0, c["t_burn"], 400, endpoint=False))
     fig, ax = plt.subplots(figsize=(6, 6))
     ax.plot(np.asarray(pre)[:, 0] / 1e3, np.asarray(pre)[:, 1] / 1e3, label="pre-burn coast")
     ax.plot(ys[:, 0] / 1e3, ys[:, 1] / 1e3, lw=0.8, label="post-burn J2 coast (Tsit5)")
     ax.plot(*(np.asarray(R_F[:2]) / 1e3), "r*", ms=12, label="R_f at t_f")
-    ax.plot(*(np.asarray(sh.r_burn[:2]) / 1e3), "ko", label="burn")
+    ax.plot(*(r_burn[:2] / 1e3), "ko", label="burn")
     ax.set(xlabel="X (km)", ylabel="Y (km)", aspect="equal", title="tan2011: impulsive intercept")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
@@ -368,11 +405,11 @@ def figures(prob, data, computed, out_dir):
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     paths.append(_save(fig, out_dir / "fig_aim_iteration.png"))
-    paths.append(_finite_burn_figure(prob, fb_sols, out_dir / "fig_finite_burn.png"))
+    paths.append(_finite_burn_figure(fb_sols, fb_samples, out_dir / "fig_finite_burn.png"))
     return paths
 
 
-def _finite_burn_figure(prob, sols, path):
+def _finite_burn_figure(sols, samples, path):
     """In-plane thrust angle atan2(u_y, u_x), out-of-plane component u_z and mass against time
     for each node count: the renormalised interpolant flown by the verifier (lines) and the
     LGL nodes (dots); Table 3's node times as ticks."""
@@ -380,21 +417,17 @@ def _finite_burn_figure(prob, sols, path):
 
     from .plots import _save
 
-    fb = finite_burn_problem(prob)
     fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
-    for sol in sols:
-        _, _, _, (ts, states) = _fly_finite_burn(fb, sol, n_save=300)
-        ts = np.asarray(ts)
-        control = direction_interpolant(sol.grid, sol.node_directions, sol.t_start,
-                                        sol.duration)
-        u = np.asarray(jax.vmap(control)(jnp.asarray(ts)))
-        nodes = np.asarray(sol.node_directions)
+    for sol, (ts, states) in zip(sols, samples):
+        u = np.asarray(jax.vmap(sol.trajectory.flight_control())(jnp.asarray(ts)))
+        nodes = np.asarray(sol.stats["node_directions"])
+        times = np.asarray(sol.times)
         label = f"{sol.grid.n} nodes"
         line, = axes[0].plot(ts, np.degrees(np.arctan2(u[:, 1], u[:, 0])), label=label)
-        axes[0].plot(sol.node_times, np.degrees(np.arctan2(nodes[:, 1], nodes[:, 0])), ".",
+        axes[0].plot(times, np.degrees(np.arctan2(nodes[:, 1], nodes[:, 0])), ".",
                      color=line.get_color())
         axes[1].plot(ts, u[:, 2], color=line.get_color(), label=label)
-        axes[1].plot(sol.node_times, nodes[:, 2], ".", color=line.get_color())
+        axes[1].plot(times, nodes[:, 2], ".", color=line.get_color())
         axes[2].plot(ts, np.asarray(states)[:, 6], color=line.get_color(), label=label)
     for t in PUBLISHED["finite_burn"]["node_times"]:
         for ax in axes:

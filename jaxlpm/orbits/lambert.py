@@ -78,8 +78,10 @@ def _hyp2f1_battin(z):
     return acc
 
 
-def time_of_flight(x, lam, revs):
-    """Izzo's nondimensional T(x) for lambda in [-1, 1] and revs = M >= 0 (see module doc)."""
+def time_of_flight(x, lam, revolutions):
+    """Izzo's nondimensional T(x) for lambda in [-1, 1] and M = revolutions >= 0 (see module
+    doc)."""
+    m = revolutions
     near = jnp.abs(x - 1.0) < SERIES_RADIUS
     ell = x < 1.0
     # Lancaster-Blanchard, ellipse (safe stand-in x = 0 where not used: keeps gradients finite)
@@ -88,7 +90,7 @@ def time_of_flight(x, lam, revs):
     ye = jnp.sqrt(1.0 - lam**2 * ee)
     sq = jnp.sqrt(ee)
     psi = jnp.arctan2(sq * (ye - lam * xe), xe * ye + lam * ee)
-    t_ell = ((psi + revs * jnp.pi) / sq - xe + lam * ye) / ee
+    t_ell = ((psi + m * jnp.pi) / sq - xe + lam * ye) / ee
     # hyperbola
     xh = jnp.where(~ell & ~near, x, 2.0)
     eh = (xh - 1.0) * (xh + 1.0)
@@ -96,27 +98,27 @@ def time_of_flight(x, lam, revs):
     sh = jnp.sqrt(eh)
     t_hyp = (xh - lam * yh - jnp.arcsinh(sh * (yh - lam * xh)) / sh) / eh
     # Battin's series near x = 1
-    t_ser = _series_time(jnp.where(near, x, 1.0 - 0.5 * SERIES_RADIUS), lam, revs)
+    t_ser = _series_time(jnp.where(near, x, 1.0 - 0.5 * SERIES_RADIUS), lam, m)
     return jnp.where(near, t_ser, jnp.where(ell, t_ell, t_hyp))
 
 
-def _series_time(x, lam, revs):
+def _series_time(x, lam, m):
     """Battin's series branch of `time_of_flight` alone (valid for |x - 1| < SERIES_RADIUS)."""
     en = (1.0 - x) * (1.0 + x)
     eta = jnp.sqrt(1.0 - lam**2 * en) - lam * x
     q = 4.0 / 3.0 * _hyp2f1_battin(0.5 * (1.0 - lam - x * eta))
-    en_rev = jnp.where(revs > 0, jnp.abs(en), 1.0)       # M = 0 may sit at x = 1 exactly
-    return 0.5 * (eta**3 * q + 4.0 * lam * eta) + jnp.where(revs > 0, revs * jnp.pi / en_rev**1.5, 0.0)
+    en_rev = jnp.where(m > 0, jnp.abs(en), 1.0)       # M = 0 may sit at x = 1 exactly
+    return 0.5 * (eta**3 * q + 4.0 * lam * eta) + jnp.where(m > 0, m * jnp.pi / en_rev**1.5, 0.0)
 
 
-def _derivatives(x, lam, revs):
+def _derivatives(x, lam, m):
     """T and its x-derivatives T1, T2, T3. Away from x = 1: Izzo eq. 22, with
     y = sqrt(1 - lambda^2 (1 - x^2)), d = 1 - x^2,
     T1 = (3 T x - 2 + 2 lambda^3 x / y) / d, T2 = (3 T + 5 x T1 + 2 (1 - lambda^2) lambda^3 /
     y^3) / d, T3 = (7 x T2 + 8 T1 - 6 (1 - lambda^2) lambda^5 x / y^5) / d. These divide by
     d -> 0 at x = 1, so inside the series radius the derivatives are those of Battin's series
     itself (Taylor-mode autodiff, jax.experimental.jet: exact, no cancellation)."""
-    t = time_of_flight(x, lam, revs)
+    t = time_of_flight(x, lam, m)
     near = jnp.abs(x - 1.0) < SERIES_RADIUS
     xf = jnp.where(near, 0.0, x)                       # stand-in keeps the closed forms finite
     tf = jnp.where(near, 1.0, t)
@@ -127,7 +129,7 @@ def _derivatives(x, lam, revs):
     t2 = (3.0 * tf + 5.0 * xf * t1 + 2.0 * (1.0 - l2) * l3 / y**3) / d
     t3 = (7.0 * xf * t2 + 8.0 * t1 - 6.0 * (1.0 - l2) * l3 * l2 * xf / y**5) / d
     xn = jnp.where(near, x, 1.0)
-    _, (s1, s2, s3) = jet(lambda z: _series_time(z, lam, revs), (xn,),
+    _, (s1, s2, s3) = jet(lambda z: _series_time(z, lam, m), (xn,),
                           ((jnp.ones_like(xn), jnp.zeros_like(xn), jnp.zeros_like(xn)),))
     # (jet along z = x + t returns the derivatives d^k T / dx^k, k = 1, 2, 3)
     return (t, jnp.where(near, s1, t1), jnp.where(near, s2, t2), jnp.where(near, s3, t3))
@@ -165,19 +167,20 @@ def _bracketed(step, x0, lo, hi, increasing, g_tol):
     return x, it, done
 
 
-def minimum_time(lam, revs):
-    """(x_Tmin, T_min) of the M = revs >= 1 time curve: Halley's method on T'(x) = 0 in (-1, 1)
-    (Izzo §3), T convex there. Returns (x, T, iterations, converged)."""
+def minimum_time(lam, revolutions):
+    """(x_Tmin, T_min) of the M = revolutions >= 1 time curve: Halley's method on T'(x) = 0
+    in (-1, 1) (Izzo §3), T convex there. Returns (x, T, iterations, converged)."""
+    m = revolutions
 
     def halley(x):
-        _, t1, t2, t3 = _derivatives(x, lam, revs)
+        _, t1, t2, t3 = _derivatives(x, lam, m)
         return t1, x - 2.0 * t1 * t2 / (2.0 * t2**2 - t1 * t3)
 
     x, it, ok = _bracketed(halley, jnp.zeros_like(lam), -1.0, 1.0, True, 0.0)
-    return x, time_of_flight(x, lam, revs), it, ok
+    return x, time_of_flight(x, lam, m), it, ok
 
 
-def _initial_guess(lam, T, revs, right):
+def _initial_guess(lam, T, m, right):
     """Izzo's starters (§3, eq. 30 and the M >= 1 pair)."""
     t00 = jnp.arccos(lam) + lam * jnp.sqrt(1.0 - lam**2)
     t1 = 2.0 / 3.0 * (1.0 - lam**3)
@@ -185,33 +188,33 @@ def _initial_guess(lam, T, revs, right):
     x_short = t1 * (t1 - T) / (0.4 * (1.0 - lam**5) * T) + 1.0
     x_mid = (T / t00) ** (jnp.log(2.0) / jnp.log(t1 / t00)) - 1.0
     x_single = jnp.where(T >= t00, x_long, jnp.where(T <= t1, x_short, x_mid))
-    m = jnp.maximum(revs, 1.0)
-    tl = ((m * jnp.pi + jnp.pi) / (8.0 * T)) ** (2.0 / 3.0)
-    tr = (8.0 * T / (m * jnp.pi)) ** (2.0 / 3.0)
+    m1 = jnp.maximum(m, 1.0)
+    tl = ((m1 * jnp.pi + jnp.pi) / (8.0 * T)) ** (2.0 / 3.0)
+    tr = (8.0 * T / (m1 * jnp.pi)) ** (2.0 / 3.0)
     x_multi = jnp.where(right, (tr - 1.0) / (tr + 1.0), (tl - 1.0) / (tl + 1.0))
-    return jnp.where(revs > 0, x_multi, x_single)
+    return jnp.where(m > 0, x_multi, x_single)
 
 
-def _time_residual(x, lam, T, revs, right, x_tmin):
-    return time_of_flight(x, lam, revs) - T
+def _time_residual(x, lam, T, m, right, x_tmin):
+    return time_of_flight(x, lam, m) - T
 
 
 @root(_time_residual, has_aux=True, zero_nonfinite=True)
-def _solve_x(x_init, lam, T, revs, right, x_tmin):
-    """x with T(x; lam, revs) = T on its branch; (x, (iterations, converged))."""
+def _solve_x(x_init, lam, T, m, right, x_tmin):
+    """x with T(x; lam, m) = T on its branch; (x, (iterations, converged))."""
     del x_init
-    multi = revs > 0
+    multi = m > 0
     lo = jnp.where(multi & right, x_tmin, -1.0)
     hi = jnp.where(multi, jnp.where(right, 1.0, x_tmin), jnp.inf)
     increasing = multi & right
 
     def householder(x):
-        t, t1, t2, t3 = _derivatives(x, lam, revs)
+        t, t1, t2, t3 = _derivatives(x, lam, m)
         d = t - T
         step = d * (t1**2 - 0.5 * d * t2) / (t1 * (t1**2 - d * t2) + t3 * d**2 / 6.0)
         return d, x - step
 
-    x, it, ok = _bracketed(householder, _initial_guess(lam, T, revs, right), lo, hi, increasing,
+    x, it, ok = _bracketed(householder, _initial_guess(lam, T, m, right), lo, hi, increasing,
                            T_RTOL * T)
     return x, (it, ok)
 
@@ -237,24 +240,24 @@ def _geometry(r1, r2, prograde):
 
 
 def _lambert(r1, r2, tof, revolutions, branch, prograde, mu):
-    revs = jnp.asarray(revolutions).astype(r1.dtype)
+    m = jnp.asarray(revolutions).astype(r1.dtype)        # Izzo's M
     right = jnp.asarray(branch) == 1
     valid = (jnp.all(jnp.isfinite(r1)) & jnp.all(jnp.isfinite(r2)) & jnp.isfinite(tof)
              & (tof > 0.0) & jnp.isfinite(mu) & (mu > 0.0) & (jnp.linalg.norm(r1) > 0.0)
-             & (jnp.linalg.norm(r2) > 0.0) & (revs >= 0.0))
+             & (jnp.linalg.norm(r2) > 0.0) & (m >= 0.0))
     # safe stand-ins keep every branch finite (and its gradient) when the input is invalid
     r1 = jnp.where(valid, r1, jnp.array([1.0, 0.0, 0.0]))
     r2 = jnp.where(valid, r2, jnp.array([0.0, 1.0, 0.0]))
-    tof, mu, revs = (jnp.where(valid, tof, 1.0), jnp.where(valid, mu, 1.0),
-                     jnp.where(valid, revs, 0.0))
+    tof, mu, m = (jnp.where(valid, tof, 1.0), jnp.where(valid, mu, 1.0),
+                  jnp.where(valid, m, 0.0))
     lam, s, c, r1n, r2n, ir1, ir2, it1, it2, planar = _geometry(r1, r2, prograde)
     T = jnp.sqrt(2.0 * mu / s**3) * tof
-    x_tmin, t_min, it_min, ok_min = minimum_time(jax.lax.stop_gradient(lam), revs)
-    feasible = (revs == 0.0) | (T > t_min)
+    x_tmin, t_min, it_min, ok_min = minimum_time(jax.lax.stop_gradient(lam), m)
+    feasible = (m == 0.0) | (T > t_min)
     good = valid & planar & feasible
     T_solve = jnp.where(good, T, jax.lax.stop_gradient(2.0 * t_min + 1.0))
-    x, (it, ok) = _solve_x(0.0 * T, lam, T_solve, revs, right, jax.lax.stop_gradient(x_tmin))
-    ok = ok & ((revs == 0.0) | ok_min)
+    x, (it, ok) = _solve_x(0.0 * T, lam, T_solve, m, right, jax.lax.stop_gradient(x_tmin))
+    ok = ok & ((m == 0.0) | ok_min)
     # velocities, Izzo Algorithm 1
     gamma = jnp.sqrt(0.5 * mu * s)
     rho = (r1n - r2n) / c
@@ -272,7 +275,7 @@ def _lambert(r1, r2, tof, revolutions, branch, prograde, mu):
                         Status.SUCCESS).astype(jnp.int32)
     keep = status == Status.SUCCESS
     return LambertSolution(v1=jnp.where(keep, v1, 0.0), v2=jnp.where(keep, v2, 0.0),
-                           x=x, iterations=it + jnp.where(revs > 0, it_min, 0), status=status)
+                           x=x, iterations=it + jnp.where(m > 0, it_min, 0), status=status)
 
 
 def _check(r1, r2, tof, revolutions, branch, mu):

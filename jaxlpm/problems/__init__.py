@@ -3,7 +3,8 @@ an NLP (`jaxlpm.nlp`)."""
 
 from .min_time import MinimumTimeTransfer
 from .energy_optimal import MODELS, EnergyOptimalTransfer, check_problem
+from .intercept import FiniteBurnIntercept, ImpulsiveIntercept
 from .lqr import LQRTransfer
 
-__all__ = ["EnergyOptimalTransfer", "MODELS", "MinimumTimeTransfer", "check_problem"]
-__all__ += ["LQRTransfer"]
+__all__ = ["EnergyOptimalTransfer", "FiniteBurnIntercept", "ImpulsiveIntercept", "LQRTransfer",
+           "MODELS", "MinimumTimeTransfer", "check_problem"]

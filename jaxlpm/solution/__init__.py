@@ -5,8 +5,9 @@ of a linear-quadratic solution)."""
 from .collocated import (PAD_TO, Collocated, ControlInterpolant, Segmented, SegmentedControl,
                          control_interpolant)
 from .hamiltonian import FlowControl, HamiltonianFlow
+from .intercept import Burn, FiniteBurn, Impulse
 from .solution import Solution, SolveError, zero_invalid
 
-__all__ = ["Collocated", "ControlInterpolant", "PAD_TO", "Segmented", "SegmentedControl",
-           "Solution", "SolveError", "control_interpolant", "zero_invalid"]
-__all__ += ["FlowControl", "HamiltonianFlow"]
+__all__ = ["Burn", "Collocated", "ControlInterpolant", "FiniteBurn", "FlowControl",
+           "HamiltonianFlow", "Impulse", "PAD_TO", "Segmented", "SegmentedControl", "Solution",
+           "SolveError", "control_interpolant", "zero_invalid"]

@@ -24,6 +24,20 @@ from ..status import Status
 # caller's own grid of times), no more
 TIME_SLACK = 1e-9
 
+# the intercept families' failures in words, by (method, status)
+_INTERCEPT_DETAILS = {
+    ("shooting", Status.INFEASIBLE): (
+        "infeasible Lambert seed: no allowed revolution count and branch reaches r_target in "
+        "the time after the burn (stats['lambert_status'])"),
+    ("shooting", Status.SINGULAR): (
+        "singular Lambert seed: the transfer angle from the burn point to r_target is 0 or pi "
+        "(the transfer plane is undefined; stats['lambert_status'])"),
+    ("augmented-lagrangian", Status.INFEASIBLE): (
+        "infeasible: the engine is too weak for the intercept (the burn that eq. (2) centres "
+        "on the impulse does not fit between 0 and t_f), no burn within max_duration reaches "
+        "r_target, or the impulsive seed has no Lambert solution (stats['seed_status'])"),
+}
+
 
 class SolveError(RuntimeError):
     """An unbatched `jaxlpm.solve(..., throw=True)` that did not end SUCCESS. `status` is the
@@ -102,6 +116,8 @@ class Solution:
             return ("infeasible: the thrust bound cannot reach the target in the time (full "
                     "thrust everywhere, or the dual ascent diverged); stats['terminal_error'] "
                     "is the miss")
+        if self.frame == "inertial" and (self.method, status) in _INTERCEPT_DETAILS:
+            return _INTERCEPT_DETAILS[self.method, status]
         return status.message
 
     # ---- nodes --------------------------------------------------------------------------

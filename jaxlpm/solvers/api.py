@@ -10,6 +10,8 @@ compiled solver; every family returns a `Solution`.
 | `MinimumTimeTransfer`   | "augmented-lagrangian"                  | lg(32)                |
 | `FuelOptimalTransfer`   | "homotopy"                              | 24 LGR segments of 8  |
 | `LQRTransfer`           | "riccati" (exact Riccati sweep)         | 512 steps (an int)    |
+| `ImpulsiveIntercept`    | "shooting" (Lambert + J2 Newton)        | none (grid=None)      |
+| `FiniteBurnIntercept`   | "augmented-lagrangian" (LGL burn arc)   | lgl(5)                |
 
 Grids count their points: `lgl(65)` has 65 LGL points (Mei 2010's degree N = 64).
 """
@@ -20,10 +22,10 @@ from .._validation import is_concrete, require_x64
 from ..solution import Solution, SolveError
 from ..status import Status
 from . import energy_optimal, fuel_optimal, min_time
-from . import lqr
+from . import finite_burn, impulsive, lqr
 
-FAMILIES = {f.problem: f for f in (energy_optimal.FAMILY, min_time.FAMILY, fuel_optimal.FAMILY)}
-FAMILIES[lqr.FAMILY.problem] = lqr.FAMILY
+FAMILIES = {f.problem: f for f in (energy_optimal.FAMILY, min_time.FAMILY, fuel_optimal.FAMILY,
+                                   lqr.FAMILY, impulsive.FAMILY, finite_burn.FAMILY)}
 
 
 def solve(problem, grid=None, *, method=None, options=None, throw=True) -> Solution:

@@ -1,9 +1,10 @@
 """Minimum-duration finite burn of a J2 long-range intercept (Tan, Yan, Zhou & Tang 2011, §2.5,
 eq. 20-21): LGL collocation of the burn arc joined to the J2 coast.
 
-A vehicle coasts from state0 at t = 0 (`InterceptProblem`), fires a constant thrust F along a
-free unit direction u_hat from t_s to t_e = t_s + D, then coasts to t_f, where it must be at
-r_target. Inertial Earth-centred equatorial frame, SI units (m, m/s, kg, s, N):
+A vehicle coasts from state0 at t = 0 (`FiniteBurnIntercept`: its `ImpulsiveIntercept` and the
+engine), fires a constant thrust F along a free unit direction u_hat from t_s to t_e = t_s + D,
+then coasts to t_f, where it must be at r_target. Inertial Earth-centred equatorial frame, SI
+units (m, m/s, kg, s, N):
 
     minimise    D  over t_s, D, u_hat(t)
     subject to  dr/dt = v,  dv/dt = a_grav(r) + (F / m(t)) u_hat,  |u_hat| = 1  (t_s..t_e)
@@ -43,89 +44,54 @@ making the Newton-KKT matrix singular.
 Initial guess (the paper's eq. 2): the burn centred on the impulsive burn time t_b with the
 duration T = m0 |dv| / F, t_s0 = t_b - T / 2, direction along dv; nodal states: the coast from
 t_s plus the constant-acceleration increments (F / m0) u_hat (t - t_s) in velocity and half
-its time integral in position.
+its time integral in position; the multipliers by least squares there. The impulse (t_b, dv)
+is the problem's seed, or else the intercept's impulsive solution (`jaxlpm.solvers.impulsive`,
+solved inside the same program).
+
+`jaxlpm.solve(FiniteBurnIntercept(...), lgl(n))` (method "augmented-lagrangian", default grid
+lgl(5)) returns a `Solution` (frame "inertial", trajectory `jaxlpm.solution.FiniteBurn`):
+  cost      the burn duration D (s), the objective (fuel = mdot D: stats["fuel"], and
+            `propellant(mass, isp)` gives the same by the rocket equation)
+  duration  t_f (s)
+  delta_v   int F / m dt = isp g0 ln(m0 / (m0 - mdot D)) (m/s); controls(t) = F / m(t) u_hat(t)
+            (m/s^2, inertial) during the burn, zero on the coasts; costates are not estimated
+            (NaN)
+  stats     t_start, t_end, burn_duration (s), fuel (kg), miss |r(t_f) - r_target| (m) of the
+            Dopri8 coast from the collocated end state, duration_gradient dD*/dt_s at t_start
+            (0 at the optimum), constraint_residual, path_residual, stationarity_residual (the
+            last arc solve's, scaled units), search_iterations (t_s steps), arc_solves
+            (augmented-Lagrangian solves), newton_iterations, node_masses (kg),
+            node_directions (unit, inertial), seed_time (s), seed_dv (m/s), seed_status
+  status    SUCCESS; the seed's failure (an impulsive solve that failed: its status);
+            INFEASIBLE (eq. (2)'s burn does not fit between 0 and t_f: the engine is too weak
+            for the intercept; or no burn within max_duration reaches r_target);
+            MAX_ITERATIONS (the arc solve, the model rebuilds or the t_s search); NONFINITE
+            (also a failed coast or variational integration); INVALID_INPUT (traced bad
+            input). Outputs of a search that did not run, or non-finite ones, are zeros.
 """
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import diffrax
 import jax
 import jax.numpy as jnp
 
-from .._validation import check_finite, check_shape, is_concrete, require_x64
-from ..collocation import Grid
-from ..constants import G0
+from ..collocation import Grid, lgl
 from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import VARIATIONAL, propagate, solve_ode
+from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
+from ..nlp.newton import DenseKKT, NewtonOptions
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import pack, unpack
+from ..problems.intercept import FiniteBurnIntercept
+from ..solution import FiniteBurn, Solution, zero_invalid
 from ..status import Status
-from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
-from ..nlp.newton import NewtonOptions
-from .impulsive import InterceptProblem
+from .family import FamilySolver
+from .impulsive import solve_impulsive
 
 LENGTH = 1.0e7            # m: length scale of the collocated state
 MIN_POINTS = 3
-
-
-@jax.tree_util.register_dataclass
-@dataclass(frozen=True)
-class FiniteBurnProblem:
-    """The intercept (`InterceptProblem`: state0 at t = 0, t_f, r_target, gravity) flown with
-    a constant-thrust engine: thrust (N), mass m0 at the burn start (kg), specific impulse
-    isp (s), burn duration at most max_duration (s; inf: unbounded)."""
-
-    intercept: InterceptProblem
-    thrust: jax.Array
-    mass: jax.Array
-    isp: jax.Array
-    max_duration: jax.Array = field(default=float("inf"))
-
-    def replace(self, **kwargs) -> "FiniteBurnProblem":
-        return replace(self, **kwargs)
-
-    @property
-    def mass_rate(self):
-        """Propellant flow F / (Isp g0) (kg/s)."""
-        return self.thrust / (self.isp * G0)
-
-    def validate(self, t_impulse, dv_impulse) -> None:
-        """Raise ValueError naming what is wrong (concrete inputs)."""
-        ip = self.intercept
-        check_shape("intercept.state0", ip.state0, (6,))
-        check_shape("intercept.r_target", ip.r_target, (3,))
-        check_shape("dv_impulse", dv_impulse, (3,))
-        for name, value in (("intercept.state0", ip.state0), ("intercept.r_target",
-                            ip.r_target), ("dv_impulse", dv_impulse)):
-            check_finite(name, value)
-        for name in ("thrust", "mass", "isp"):
-            value = getattr(self, name)
-            check_shape(name, value, ())
-            if not float(check_finite(name, value)) > 0.0:
-                raise ValueError(f"{name} must be positive (N, kg, s), got {value}")
-        if not float(self.max_duration) > 0.0:
-            raise ValueError(f"max_duration must be positive (s), got {self.max_duration}")
-        t_b, t_f = float(check_finite("t_impulse", t_impulse)), float(ip.t_f)
-        if not 0.0 < t_b < t_f:
-            raise ValueError(f"t_impulse must lie in (0, t_f) = (0, {t_f}) s, got {t_b}")
-        if not float(jnp.linalg.norm(jnp.asarray(dv_impulse))) > 0.0:
-            raise ValueError("dv_impulse is zero: there is no burn to model")
-        half = float(self.mass * jnp.linalg.norm(jnp.asarray(dv_impulse)) / (2 * self.thrust))
-        if not (t_b - half > 0.0 and t_b + half < t_f):
-            raise ValueError(f"the eq. (2) burn [{t_b - half}, {t_b + half}] s must lie inside "
-                             f"(0, t_f = {t_f}) s: thrust {self.thrust} N is too weak for it")
-
-    def validity(self, t_impulse, dv_impulse):
-        """In-graph counterpart of `validate` for traced inputs."""
-        ip = self.intercept
-        half = self.mass * jnp.linalg.norm(dv_impulse) / (2 * self.thrust)
-        finite = (jnp.all(jnp.isfinite(ip.state0)) & jnp.all(jnp.isfinite(ip.r_target))
-                  & jnp.all(jnp.isfinite(dv_impulse)) & jnp.isfinite(t_impulse)
-                  & jnp.isfinite(self.thrust) & jnp.isfinite(self.mass)
-                  & jnp.isfinite(self.isp))
-        return (finite & (self.thrust > 0) & (self.mass > 0) & (self.isp > 0)
-                & (self.max_duration > 0) & (t_impulse - half > 0)
-                & (t_impulse + half < ip.t_f))
+DEFAULT_POINTS = 5        # Tan 2011's Table 3: 5 LGL nodes resolve the burn
 
 
 @dataclass(frozen=True)
@@ -147,39 +113,6 @@ class FiniteBurnOptions:
     al: ALOptions = field(default_factory=lambda: ALOptions(
         tol_path=1e-7, inner=NewtonOptions(max_iterations=30, tol_optimality=1e-6,
                                            stall_iterations=0)))
-
-
-@jax.tree_util.register_dataclass
-@dataclass(frozen=True)
-class FiniteBurnSolution:
-    """Burn from t_start for duration (s); fuel = mdot * duration (kg); at the LGL nodes:
-    node_times (s), node_states [r, v] (n, 6; m, m/s, inertial), node_masses (kg),
-    node_directions (unit vectors, inertial). miss = |r(t_f) - r_target| (m) of the Dopri8
-    J2 coast from the collocated end state. duration_gradient = dD*/dt_s at t_start (s/s; 0
-    at the optimum). status (`Status`): SUCCESS, or the arc solve's failure (INFEASIBLE: no
-    burn within max_duration reaches r_target), MAX_ITERATIONS (the arc solve, the model
-    rebuilds or the t_s search), NONFINITE (also a failed coast or variational integration),
-    INVALID_INPUT (traced bad input; outputs zeroed). Residuals of the last arc solve (scaled
-    units); search_iterations, arc_solves (augmented-Lagrangian solves) and inner_iterations
-    (Newton iterations) count the work."""
-
-    grid: Grid
-    t_start: jax.Array
-    duration: jax.Array
-    fuel: jax.Array
-    node_times: jax.Array
-    node_states: jax.Array
-    node_masses: jax.Array
-    node_directions: jax.Array
-    miss: jax.Array
-    duration_gradient: jax.Array
-    constraint_residual: jax.Array
-    path_residual: jax.Array
-    stationarity_residual: jax.Array
-    search_iterations: jax.Array
-    arc_solves: jax.Array
-    inner_iterations: jax.Array
-    status: jax.Array
 
 
 def _scales(p):
@@ -290,13 +223,19 @@ def _guess_z(ocp, grid, u):
     return pack(rv / _scales(p), jnp.tile(u, (grid.n, 1)), 1.0, ocp)
 
 
-def _solve_arc(p, grid, t_s, z, lam, max_duration, options):
+def _solve_arc(p, grid, t_s, z, lam, max_duration, options, cold):
     """Minimum D for burn start t_s from (z, lam): the augmented-Lagrangian arc solve, its
     terminal model rebuilt at each solution until the nonlinear residual is below
-    tol_boundary (at least one solve). Returns (z, lam, status, dD/dt_s (s/s), miss (m),
+    tol_boundary (at least one solve). cold: start from the least-squares multipliers at z
+    instead of lam (`DenseKKT.first_multipliers`, the augmented Lagrangian's own default; from
+    zero multipliers the first arc solve's path depended on the seed's last bits: 22 or 60
+    Newton iterations, or MAX_ITERATIONS inside the whole program, for seeds 4e-10 m/s apart;
+    29 to 34 for each from these). Returns (z, lam, status, dD/dt_s (s/s), miss (m),
     [residuals], solves, Newton iterations)."""
     ocp0, ok_start = _arc_ocp(p, t_s, z[-1], max_duration)
     model, resid, miss, ok = _end_model(z, ocp0, grid)
+    first = DenseKKT(ocp0.replace(params=dict(ocp0.params, model=model)), grid, z)
+    lam = jnp.where(cold, first.first_multipliers(z), lam)
 
     def step(c):
         z, lam, model, k, _, _, _, inner, residuals = c
@@ -335,33 +274,33 @@ def n_multipliers(grid) -> int:
     return 6 * grid.n + 9
 
 
-def _sanitized(problem, t_impulse, dv_impulse, valid):
-    """Finite stand-ins where `valid` is False (the outputs are zeroed afterwards)."""
-    ip = problem.intercept
-    pick = lambda x, default: jnp.where(valid, x, default)
-    ip = replace(ip, state0=pick(ip.state0, jnp.array([4.2e7, 0.0, 0.0, 0.0, 3.08e3, 0.0])),
-                 r_target=pick(ip.r_target, jnp.array([0.0, 4.2e7, 0.0])),
-                 t_f=pick(ip.t_f, 3.0e4))
-    problem = problem.replace(intercept=ip, thrust=pick(problem.thrust, 200.0),
-                              mass=pick(problem.mass, 800.0), isp=pick(problem.isp, 260.0),
-                              max_duration=pick(problem.max_duration, jnp.inf))
-    return problem, pick(t_impulse, 1.0e4), pick(dv_impulse, jnp.array([0.0, 10.0, 0.0]))
+def _seed(problem: FiniteBurnIntercept):
+    """(t_b (s), dv (3,) (m/s), status) of the impulse that seeds eq. (2): the user's, or the
+    intercept's impulsive solution (`jaxlpm.solvers.impulsive`)."""
+    if problem.seeded:
+        return problem.seed_time, problem.seed_dv, jnp.asarray(Status.SUCCESS, jnp.int32)
+    impulsive = solve_impulsive(problem.intercept)
+    return impulsive.stats["t_burn"], impulsive.stats["dv"], impulsive.status
 
 
-def _finite_burn(problem, grid, t_impulse, dv_impulse, options: FiniteBurnOptions):
-    valid = problem.validity(t_impulse, dv_impulse)
-    problem, t_impulse, dv_impulse = _sanitized(problem, t_impulse, dv_impulse, valid)
+def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions) -> Solution:
+    valid = problem.validity()
+    problem = problem.sanitized(valid)
     ip = problem.intercept
+    t_impulse, dv_impulse, seed_status = _seed(problem)
     dv = jnp.linalg.norm(dv_impulse)
     T = problem.mass * dv / problem.thrust                         # eq. (2)
     t_s0 = t_impulse - 0.5 * T
-    p = {"state0": ip.state0, "r_target": ip.r_target, "t_f": ip.t_f, "mu": ip.mu, "j2": ip.j2,
-         "r_eq": ip.r_eq, "thrust": problem.thrust, "mass": problem.mass,
+    # eq. (2)'s burn must fit between 0 and t_f, else the engine is too weak for the intercept
+    fits = (dv > 0.0) & (t_s0 > 0.0) & (t_impulse + 0.5 * T < ip.duration)
+    search = valid & (seed_status == Status.SUCCESS) & fits
+    p = {"state0": ip.state0, "r_target": ip.r_target, "t_f": ip.duration, "mu": ip.mu,
+         "j2": ip.j2, "r_eq": ip.r_eq, "thrust": problem.thrust, "mass": problem.mass,
          "mass_rate": problem.mass_rate, "T": T}
     half_width = options.search_half_width * T
     lo, hi = t_s0 - half_width, t_s0 + half_width
     z0 = _guess_z(_arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration)[0], grid,
-                  dv_impulse / dv)
+                  dv_impulse / jnp.where(dv > 0.0, dv, 1.0))
 
     def cond(c):
         k, t_a, _, t_b, _, _, _, st = c[:8]
@@ -376,7 +315,7 @@ def _finite_burn(problem, grid, t_impulse, dv_impulse, options: FiniteBurnOption
         probe = t_b - jnp.sign(g_b) * 1.0                # 1 s downhill of eq. (2)'s start
         t_new = jnp.clip(jnp.select([k == 0, k == 1], [t_s0, probe], secant), lo, hi)
         z, lam, st, g, miss, res, n_solves, n_inner = _solve_arc(
-            p, grid, t_new, z, lam, problem.max_duration, options)
+            p, grid, t_new, z, lam, problem.max_duration, options, k == 0)
         return (k + 1, t_b, g_b, t_new, g, z, lam, st, miss, res, solves + n_solves,
                 inner + n_inner)
 
@@ -384,47 +323,57 @@ def _finite_burn(problem, grid, t_impulse, dv_impulse, options: FiniteBurnOption
     init = (jnp.asarray(0, jnp.int32), t_s0, zero, t_s0, zero, z0,
             jnp.zeros(n_multipliers(grid)), jnp.asarray(Status.SUCCESS, jnp.int32), zero,
             jnp.zeros(3), jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32))
-    k, t_a, _, t_s, g, z, lam, status, miss, res, n_solves, inner = jax.lax.while_loop(
-        cond, body, init)
+    # no search without a seed that fits (unbatched, the branch is skipped)
+    k, t_a, _, t_s, g, z, lam, status, miss, res, n_solves, inner = jax.lax.cond(
+        search, lambda c: jax.lax.while_loop(cond, body, c), lambda c: c, init)
     status = jnp.where((status == Status.SUCCESS) & (jnp.abs(t_s - t_a) > options.search_tol),
                        Status.MAX_ITERATIONS, status)
-    status = jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32)
+    status = jnp.select([~valid, seed_status != Status.SUCCESS, ~fits],
+                        [Status.INVALID_INPUT, seed_status, Status.INFEASIBLE],
+                        status).astype(jnp.int32)
     ocp, _ = _arc_ocp(p, t_s, z[-1], problem.max_duration)   # layout for unpack only
     X, U, sf = unpack(z, ocp, grid)
     duration = T * sf
-    node_times = t_s + 0.5 * duration * (grid.points + 1.0)
 
     def keep(x):
-        return jnp.where(valid & jnp.all(jnp.isfinite(x)), x, jnp.zeros_like(x))
+        return jnp.where(search & jnp.all(jnp.isfinite(x)), x, jnp.zeros_like(x))
 
-    return FiniteBurnSolution(
-        grid=grid, t_start=keep(t_s), duration=keep(duration),
-        fuel=keep(problem.mass_rate * duration), node_times=keep(node_times),
-        node_states=keep(X * _scales(p)),
-        node_masses=keep(problem.mass - problem.mass_rate * (node_times - t_s)),
-        node_directions=keep(U), miss=keep(miss), duration_gradient=keep(g),
+    trajectory = FiniteBurn(
+        grid=grid, state0=ip.state0, t_start=keep(t_s), t_end=keep(t_s + duration),
+        node_states=keep(X * _scales(p)), node_directions=keep(U), thrust=problem.thrust,
+        mass=problem.mass, mass_rate=problem.mass_rate, duration=ip.duration, mu=ip.mu,
+        j2=ip.j2, r_eq=ip.r_eq)
+    stats = dict(
+        t_start=trajectory.t_start, t_end=trajectory.t_end, burn_duration=keep(duration),
+        fuel=keep(problem.mass_rate * duration), miss=keep(miss), duration_gradient=keep(g),
         constraint_residual=keep(res[0]), path_residual=keep(res[1]),
         stationarity_residual=keep(res[2]), search_iterations=k, arc_solves=n_solves,
-        inner_iterations=inner, status=status)
+        newton_iterations=inner, node_masses=trajectory.node_masses,
+        node_directions=trajectory.node_directions, seed_time=zero_invalid(valid, t_impulse),
+        seed_dv=zero_invalid(valid, dv_impulse), seed_status=seed_status)
+    return Solution(problem=problem, status=status, cost=stats["burn_duration"],
+                    duration=ip.duration, trajectory=trajectory, stats=stats,
+                    method="augmented-lagrangian", frame="inertial")
 
 
 _compiled = jax.jit(_finite_burn, static_argnames="options")
 
 
-def finite_burn(problem: FiniteBurnProblem, grid: Grid, t_impulse, dv_impulse,
-                options: FiniteBurnOptions = FiniteBurnOptions()) -> FiniteBurnSolution:
-    """Minimum-duration finite burn (module docstring) on an LGL grid, initialised from the
-    impulsive burn (t_impulse (s), dv_impulse (m/s, inertial)) by the paper's eq. (2).
-    jit-compiled once per grid size for concrete inputs; concrete bad input raises ValueError,
-    traced bad input gives status INVALID_INPUT and zeroed outputs."""
-    require_x64()
+def check_grid(grid, method):
     if not isinstance(grid, Grid) or grid.scheme != "LGL":
-        raise ValueError(f"the burn arc is collocated on an LGL grid (lgl(n)), got {grid!r:.60}")
+        raise ValueError(f"the burn arc is collocated on an LGL grid (lgl(n): n points), got "
+                         f"{grid!r:.60}")
     if grid.n < MIN_POINTS:
-        raise ValueError(f"a finite burn needs at least {MIN_POINTS} LGL nodes, got {grid.n}")
-    t_impulse = jnp.asarray(t_impulse, jnp.float64)
-    dv_impulse = jnp.asarray(dv_impulse, jnp.float64)
-    if is_concrete(problem, t_impulse, dv_impulse):
-        problem.validate(t_impulse, dv_impulse)
-        return _compiled(problem, grid, t_impulse, dv_impulse, options)
-    return _finite_burn(problem, grid, t_impulse, dv_impulse, options)
+        raise ValueError(f"a finite burn needs at least {MIN_POINTS} LGL points, got {grid.n}")
+
+
+def run(problem, grid, method, options: FiniteBurnOptions) -> Solution:
+    """Minimum-duration finite burn (module docstring) on an LGL grid: jit-compiled once per
+    grid size, options and static structure (seed given or not); traceable (vmap over
+    problems; not differentiable end to end: the t_s search is a while loop of solves)."""
+    return _compiled(problem, grid, options)
+
+
+FAMILY = FamilySolver(problem=FiniteBurnIntercept,
+                      methods={"augmented-lagrangian": FiniteBurnOptions}, run=run,
+                      default_grid=lambda problem: lgl(DEFAULT_POINTS), check_grid=check_grid)

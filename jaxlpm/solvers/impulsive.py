@@ -1,10 +1,12 @@
-"""Impulsive fixed-time intercept under J2: Lambert + aim-point iteration + Newton shooting.
+"""Impulsive fixed-time intercept under J2 (`ImpulsiveIntercept`): Lambert + Newton shooting,
+the burn time optimised by gradient; the paper's aim-point iteration.
 
 Tan, Yan, Zhou & Tang (2011), §1: a vehicle coasting on (r0, v0) from t = 0 makes one burn at
 t_b and must be at r_target at t_f, under two-body + J2 gravity.
 
-- `lambert_candidates` / `best_lambert`: the two-body Lambert velocities for every revolution
-  count 0..max_revs and both branches (prograde), the one of least |dv| chosen.
+- `lambert_candidates`: the two-body Lambert velocities for every (revolution count, branch)
+  asked (prograde); the seed is the candidate of least |dv| among those the problem allows
+  (`revolutions`, `branch`: given, or all M = 0..max_revolutions and both branches).
 - `aim_point_iteration`: the paper's steps 1-5. As printed (step 4: L_m = L'_m, step 3: aim at
   r* - L_m) each aim point is r* minus the *latest* miss only, so once a miss is small the next
   aim returns to r* and the misses alternate: the iteration cannot converge. With
@@ -12,86 +14,98 @@ t_b and must be at r_target at t_f, under two-body + J2 gravity.
   that converges when the J2 displacement varies slowly with the aim point.
 - `shoot`: Newton's method on the post-burn velocity, r(t_f; r_b, v) = r_target, with the exact
   3x3 Jacobian by reverse-mode autodiff through the diffrax coast (the paper's model (1), solved
-  as a root problem); differentiated by the implicit function theorem (`jaxlpm.implicit`).
-- `impulse`: |dv| of the shot solution as a function of t_b, differentiable, for burn-time
-  optimisation by gradient; `optimise_burn_time` does it by a safeguarded secant method on
-  d|dv|/dt_b = 0.
+  as a root problem), from the Lambert seed; differentiated by the implicit function theorem
+  (`jaxlpm.implicit`), so |dv| is differentiable in t_b.
+- A burn-time window [t_lo, t_hi]: |dv(t_b)| minimised by a safeguarded secant method on
+  d|dv|/dt_b = 0 (a bracket g(t_lo) < 0 < g(t_hi) is kept and a secant step that leaves it
+  is replaced by bisection; without a sign change it converges to the end of least |dv|).
 
+`jaxlpm.solve(ImpulsiveIntercept(...))` (method "shooting", no grid) returns a `Solution`
+(frame "inertial", trajectory `jaxlpm.solution.Impulse`):
+  cost      |dv| (m/s) = delta_v; controls(t) are zero (the impulse is stats["dv"]); costates
+            are not estimated (NaN)
+  duration  t_f (s)
+  stats     t_burn (s), dv, v_pre, v_post (3,) (m/s), r_burn (3,) (m), miss |r(t_f) -
+            r_target| (m) by the solver's own coast, newton_iterations, revolutions and branch
+            of the Lambert seed (0 left, 1 right), lambert_status (the seed's `Status`),
+            search_iterations (secant steps; 0 for a given burn time), burn_time_gradient
+            d|dv|/dt_b at t_b (m/s^2; NaN for a given burn time: not computed)
+  status    SUCCESS; the Lambert seed's failure (INFEASIBLE: no allowed revolution count
+            reaches r_target in the time; SINGULAR: a transfer angle of 0 or pi);
+            MAX_ITERATIONS (Newton above MISS_TOL, or the secant search); NONFINITE (also a
+            failed coast); INVALID_INPUT (traced bad input; outputs zeroed).
 SI units: m, m/s, s, inertial frame; the coast is `jaxlpm.dynamics.propagation.propagate`.
 """
 
-from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 
-from ..constants import J2_EARTH, MU_EARTH, R_EARTH
+from ..constants import MU_EARTH
 from ..dynamics.propagation import propagate
 from ..implicit import root
 from ..orbits.lambert import lambert
+from ..problems.intercept import ImpulsiveIntercept
+from ..solution import Impulse, Solution, zero_invalid
 from ..status import Status
+from .family import FamilySolver
 
 MISS_TOL = 1e-3          # m: Newton stops at |miss| below this (the coast itself is ~mm-accurate)
 NEWTON_ITERATIONS = 20
+SEARCH_ITERATIONS = 30   # secant steps on d|dv|/dt_b
+SEARCH_TOL = 1e-4        # s: the secant stops when its bracket is this narrow
 
 
-@jax.tree_util.register_dataclass
-@dataclass(frozen=True)
-class InterceptProblem:
-    """Initial inertial state (m, m/s) at t = 0, intercept time t_f (s) and point (m), gravity."""
-
-    state0: jax.Array
-    t_f: jax.Array
-    r_target: jax.Array
-    mu: jax.Array = field(default=MU_EARTH)
-    j2: jax.Array = field(default=J2_EARTH)
-    r_eq: jax.Array = field(default=R_EARTH)
-
-
-def coast(problem: InterceptProblem, state, duration):
+def coast(problem: ImpulsiveIntercept, state, duration):
     """(final state, ok) of a J2 (problem.j2) coast."""
     return propagate(state, duration, problem.mu, problem.j2, problem.r_eq)
 
 
-def burn_state(problem: InterceptProblem, t_burn):
+def burn_state(problem: ImpulsiveIntercept, t_burn):
     """Pre-burn state at t_burn: the initial state coasted under J2."""
     return coast(problem, problem.state0, t_burn)
 
 
-def lambert_candidates(r1, r2, tof, max_revs: int, mu=MU_EARTH):
-    """Prograde Lambert solutions for M = 0..max_revs, both branches: (v1 (K, 3), revs (K,),
-    branch (K,), status (K,)), K = 2 (max_revs + 1) (M = 0 appears twice: its branch is moot)."""
-    revs = jnp.repeat(jnp.arange(max_revs + 1), 2)
-    branch = jnp.tile(jnp.arange(2), max_revs + 1)
-    sol = jax.vmap(lambda m, b: lambert(r1, r2, tof, m, b, True, mu))(revs, branch)
-    return sol.v1, revs, branch, sol.status
+def lambert_candidates(r1, r2, tof, revolutions, branches, mu=MU_EARTH):
+    """Prograde Lambert solutions for every pair of the integers (scalars or 1-D arrays)
+    `revolutions` (M) and `branches` (0 left, 1 right), M-major: (v1 (K, 3), M (K,),
+    branch (K,), status (K,)), K = len(revolutions) len(branches) (for M = 0 the branch is
+    moot)."""
+    m, b = (x.ravel() for x in jnp.meshgrid(jnp.atleast_1d(revolutions),
+                                            jnp.atleast_1d(branches), indexing="ij"))
+    sol = jax.vmap(lambda mi, bi: lambert(r1, r2, tof, mi, bi, True, mu))(m, b)
+    return sol.v1, m, b, sol.status
 
 
-def best_lambert(r1, v_pre, r2, tof, max_revs: int, mu=MU_EARTH):
-    """The candidate of least |v1 - v_pre|: (v1, revs, branch, status). Status INFEASIBLE when
-    no candidate solved."""
-    v1, revs, branch, status = lambert_candidates(r1, r2, tof, max_revs, mu)
+def lambert_seed(problem: ImpulsiveIntercept, r_burn, v_pre, tof):
+    """The allowed Lambert candidate of least |v1 - v_pre| (module docstring): (v1, M,
+    branch, status); where none solved, the status of the first and v1 = v_pre (a coast:
+    keeps Newton finite)."""
+    ms = (jnp.arange(problem.max_revolutions + 1) if problem.revolutions is None
+          else problem.revolutions)
+    bs = jnp.arange(2) if problem.branch is None else problem.branch
+    v1, m, b, status = lambert_candidates(r_burn, problem.r_target, tof, ms, bs, problem.mu)
     ok = status == Status.SUCCESS
-    dv = jnp.where(ok, jnp.linalg.norm(v1 - v_pre, axis=1), jnp.inf)
-    k = jnp.argmin(dv)
-    st = jnp.where(jnp.any(ok), Status.SUCCESS, Status.INFEASIBLE).astype(jnp.int32)
-    return v1[k], revs[k], branch[k], st
+    k = jnp.argmin(jnp.where(ok, jnp.linalg.norm(v1 - v_pre, axis=1), jnp.inf))
+    return jnp.where(ok[k], v1[k], v_pre), m[k], b[k], status[k]
 
 
-def aim_point_iteration(problem: InterceptProblem, t_burn, revs, branch, iterations: int,
-                        accumulate: bool = False):
-    """Tan 2011 steps 1-5 for `iterations` Lambert re-aims at fixed (t_burn, revs, branch).
+def aim_point_iteration(problem: ImpulsiveIntercept, t_burn, revolutions, branch,
+                        iterations: int, accumulate: bool = False):
+    """Tan 2011 steps 1-5 for `iterations` Lambert re-aims at fixed (t_burn, revolutions,
+    branch).
 
     Returns (dv (iterations + 1, 3), miss vectors (iterations + 1, 3)): row 0 is step 1 (aim
     at r*), row k the k-th re-aim. accumulate=False is the paper as printed (aim = r* - L_m,
     L_m the latest miss); True accumulates the corrections (aim -= L_m)."""
     rb_vb, _ = burn_state(problem, t_burn)
     rb, vb = rb_vb[:3], rb_vb[3:]
-    tof = problem.t_f - t_burn
+    tof = problem.duration - t_burn
     target = problem.r_target
 
     def shot(aim):
-        v = lambert(rb, aim, tof, revs, branch, True, problem.mu).v1
+        v = lambert(rb, aim, tof, revolutions, branch, True, problem.mu).v1
         end, _ = coast(problem, jnp.concatenate([rb, v]), tof)
         return v - vb, end[:3] - target
 
@@ -104,80 +118,85 @@ def aim_point_iteration(problem: InterceptProblem, t_burn, revs, branch, iterati
     return dvs, misses
 
 
+def _end(v, rb, tof, mu, j2, r_eq):
+    return propagate(jnp.concatenate([rb, v]), tof, mu, j2, r_eq)[0]
+
+
 def _miss(v, rb, tof, target, mu, j2, r_eq):
-    end, _ = propagate(jnp.concatenate([rb, v]), tof, mu, j2, r_eq)
-    return end[:3] - target
+    return _end(v, rb, tof, mu, j2, r_eq)[:3] - target
 
 
 @root(_miss, has_aux=True, zero_nonfinite=True)
 def _newton(v_init, rb, tof, target, mu, j2, r_eq):
-    """Newton on the post-burn velocity: v <- v - J^-1 miss(v), J = d miss / dv (autodiff)."""
+    """Newton on the post-burn velocity: v <- v - J^-1 miss(v), J = d miss / dv (autodiff).
+    Returns (v, (final state [r, v] (6,), iterations))."""
     f = lambda v: _miss(v, rb, tof, target, mu, j2, r_eq)
 
     def cond(c):
-        _, miss, it = c
-        return (it < NEWTON_ITERATIONS) & (jnp.linalg.norm(miss) > MISS_TOL)
+        _, end, it = c
+        return (it < NEWTON_ITERATIONS) & (jnp.linalg.norm(end[:3] - target) > MISS_TOL)
 
     def body(c):
-        v, miss, it = c
-        jac = jax.jacrev(f)(v)
-        v = v - jnp.linalg.solve(jac, miss)
-        return v, f(v), it + 1
+        v, end, it = c
+        v = v - jnp.linalg.solve(jax.jacrev(f)(v), end[:3] - target)
+        return v, _end(v, rb, tof, mu, j2, r_eq), it + 1
 
-    v, miss, it = jax.lax.while_loop(cond, body, (v_init, f(v_init), 0))
-    return v, (jnp.linalg.norm(miss), it)
+    v, end, it = jax.lax.while_loop(cond, body, (v_init, _end(v_init, rb, tof, mu, j2, r_eq), 0))
+    return v, (end, it)
 
 
-@jax.tree_util.register_dataclass
-@dataclass(frozen=True)
-class ImpulsiveSolution:
-    """Burn at t_burn (s): position r_burn (m), pre-burn velocity v_pre and post-burn v_post
-    (m/s), dv = v_post - v_pre (m/s), the J2 coast's miss |r(t_f) - r_target| (m), Newton
-    iterations and status (SUCCESS, MAX_ITERATIONS, NONFINITE, or INFEASIBLE when no Lambert
-    solution seeds it)."""
+class Shot(NamedTuple):
+    """The exact J2 intercept burning at t_burn (s): pre-burn state (6,), post-burn velocity
+    (m/s), final state (6,), miss (m), Newton iterations, the Lambert seed's M, branch and
+    status, and the status of the shot."""
 
-    t_burn: jax.Array
-    r_burn: jax.Array
-    v_pre: jax.Array
+    burn_state: jax.Array
     v_post: jax.Array
-    dv: jax.Array
+    end_state: jax.Array
     miss: jax.Array
     iterations: jax.Array
+    revolutions: jax.Array
+    branch: jax.Array
+    lambert_status: jax.Array
     status: jax.Array
 
+    @property
+    def dv(self):
+        return self.v_post - self.burn_state[3:]
 
-def shoot(problem: InterceptProblem, t_burn, revs, branch, v_init=None):
-    """Exact J2 intercept by Newton shooting from the two-body Lambert velocity (or v_init)."""
+
+def shoot(problem: ImpulsiveIntercept, t_burn) -> Shot:
+    """Exact J2 intercept burning at t_burn (s) by Newton shooting from the Lambert seed."""
     pre, ok_coast = burn_state(problem, t_burn)
     rb, vb = pre[:3], pre[3:]
-    tof = problem.t_f - t_burn
-    lam = lambert(rb, problem.r_target, tof, revs, branch, True, problem.mu)
-    v0 = lam.v1 if v_init is None else v_init
-    v, (miss, it) = _newton(v0, rb, tof, problem.r_target, problem.mu, problem.j2, problem.r_eq)
+    tof = problem.duration - t_burn
+    # the seed only starts Newton, whose root is differentiated implicitly: no tangents
+    v0, m, b, lam_status = lambert_seed(problem, *jax.lax.stop_gradient((rb, vb, tof)))
+    v, (end, it) = _newton(v0, rb, tof, problem.r_target, problem.mu, problem.j2, problem.r_eq)
+    miss = jnp.linalg.norm(end[:3] - problem.r_target)
     finite = jnp.all(jnp.isfinite(v)) & jnp.isfinite(miss) & ok_coast
-    status = jnp.select(
-        [(v_init is None) & (lam.status != Status.SUCCESS), ~finite, miss > MISS_TOL],
-        [Status.INFEASIBLE, Status.NONFINITE, Status.MAX_ITERATIONS],
-        Status.SUCCESS).astype(jnp.int32)
-    return ImpulsiveSolution(t_burn=jnp.asarray(t_burn, jnp.float64), r_burn=rb, v_pre=vb,
-                             v_post=v, dv=v - vb, miss=miss, iterations=it, status=status)
+    status = jnp.select([lam_status != Status.SUCCESS, ~finite, miss > MISS_TOL],
+                        [lam_status, Status.NONFINITE, Status.MAX_ITERATIONS],
+                        Status.SUCCESS).astype(jnp.int32)
+    return Shot(pre, v, end, miss, it, m, b, lam_status, status)
 
 
-def impulse(problem: InterceptProblem, t_burn, revs, branch):
-    """|dv| (m/s) of the exact J2 intercept burning at t_burn: differentiable in t_burn."""
-    return jnp.linalg.norm(shoot(problem, t_burn, revs, branch).dv)
+def _impulse(problem, t_burn):
+    """(|dv| (m/s), the shot) burning at t_burn: differentiable in t_burn."""
+    shot = shoot(problem, t_burn)
+    return jnp.linalg.norm(shot.dv), shot
 
 
-def optimise_burn_time(problem: InterceptProblem, t_lo, t_hi, revs, branch,
-                       iterations: int = 30, t_tol: float = 1e-4):
-    """Minimise |dv(t_b)| on [t_lo, t_hi] (s) by a safeguarded secant method on the autodiff
-    derivative g = d|dv|/dt_b: a bracket with g(t_lo) < 0 < g(t_hi) is kept and a secant step
-    that leaves it is replaced by bisection. Returns (t_b, |dv|, g, iterations)."""
-    grad = jax.value_and_grad(lambda t: impulse(problem, t, revs, branch))
+def optimise_burn_time(problem: ImpulsiveIntercept):
+    """Minimise |dv(t_b)| on the window problem.burn_time = [t_lo, t_hi] (s) by the safeguarded
+    secant method on the autodiff derivative g = d|dv|/dt_b (module docstring). Returns
+    (t_b, the shot there, g there, iterations, converged: the bracket below SEARCH_TOL)."""
+    grad = jax.value_and_grad(lambda t: _impulse(problem, t), has_aux=True)
+    t_lo, t_hi = problem.burn_time[0], problem.burn_time[1]
 
     def cond(c):
-        lo, hi, *_ , it = c
-        return (it < iterations) & (hi - lo > t_tol)
+        lo, hi, *_, it = c
+        return (it < SEARCH_ITERATIONS) & (hi - lo > SEARCH_TOL)
 
     def body(c):
         lo, hi, glo, ghi, it = c
@@ -193,8 +212,54 @@ def optimise_burn_time(problem: InterceptProblem, t_lo, t_hi, revs, branch,
 
     _, glo = grad(t_lo)
     _, ghi = grad(t_hi)
-    lo, hi, glo, ghi, it = jax.lax.while_loop(
-        cond, body, (jnp.asarray(t_lo, jnp.float64), jnp.asarray(t_hi, jnp.float64), glo, ghi, 0))
+    lo, hi, glo, ghi, it = jax.lax.while_loop(cond, body, (t_lo, t_hi, glo, ghi, 0))
     t = jnp.where(jnp.abs(glo) < jnp.abs(ghi), lo, hi)
-    value, g = grad(t)
-    return t, value, g, it
+    (_, shot), g = grad(t)
+    return t, shot, g, it, hi - lo <= SEARCH_TOL
+
+
+def solve_impulsive(problem: ImpulsiveIntercept) -> Solution:
+    """The `Solution` of an impulsive intercept (module docstring); traceable."""
+    valid = problem.validity()
+    problem = problem.sanitized(valid)
+    if problem.optimises_burn_time:
+        t_burn, shot, gradient, searched, converged = optimise_burn_time(problem)
+    else:
+        t_burn = jnp.asarray(problem.burn_time, jnp.float64)
+        shot, gradient = shoot(problem, t_burn), jnp.asarray(jnp.nan)
+        searched, converged = jnp.asarray(0), jnp.asarray(True)
+    status = jnp.where((shot.status == Status.SUCCESS) & ~converged, Status.MAX_ITERATIONS,
+                       shot.status)
+    status = jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32)
+    dv = shot.dv
+    trajectory = zero_invalid(valid, Impulse(
+        state0=problem.state0, t_burn=t_burn, burn_state=shot.burn_state, dv=dv,
+        end_state=shot.end_state, duration=problem.duration, mu=problem.mu, j2=problem.j2,
+        r_eq=problem.r_eq))
+    stats = zero_invalid(valid, dict(
+        t_burn=t_burn, dv=dv, v_pre=shot.burn_state[3:], v_post=shot.v_post,
+        r_burn=shot.burn_state[:3], miss=shot.miss, newton_iterations=shot.iterations,
+        revolutions=shot.revolutions, branch=shot.branch, lambert_status=shot.lambert_status,
+        search_iterations=searched, burn_time_gradient=gradient))
+    return Solution(problem=problem, status=status, cost=trajectory.delta_v(),
+                    duration=trajectory.duration, trajectory=trajectory, stats=stats,
+                    method="shooting", frame="inertial")
+
+
+_compiled = jax.jit(solve_impulsive)
+
+
+def check_grid(grid, method):
+    if grid is not None:
+        raise ValueError(f"an impulsive intercept takes no grid (grid=None), got {grid!r:.60}")
+
+
+def run(problem, grid, method, options) -> Solution:
+    """Solve an `ImpulsiveIntercept` (module docstring): jit-compiled once per static
+    structure (a burn time or a window; revolutions and branch given or chosen); traceable
+    (vmap over problems; |dv| is differentiable for a given burn time)."""
+    return _compiled(problem)
+
+
+FAMILY = FamilySolver(problem=ImpulsiveIntercept, methods={"shooting": None}, run=run,
+                      default_grid=lambda problem: None, check_grid=check_grid)

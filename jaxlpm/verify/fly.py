@@ -18,6 +18,15 @@ Models (SI; LVLH: x radial outward, y along-track, z orbit normal):
 A control collocated in the chief's anomaly is applied at the flight chief's anomaly; one
 collocated in time (the HCW families), at the time. Integrator: `FLIGHT` (Dopri8,
 rtol = atol = 1e-12 on scaled states; `jaxlpm.dynamics.propagation`).
+
+An intercept (frame "inertial": `ImpulsiveIntercept`, `FiniteBurnIntercept`) is flown by the
+independent inertial integrator (`jaxlpm.verify.inertial.fly_burn`: Tsit5, `INDEPENDENT`)
+from its initial state at t = 0 through the solution's burn (the impulse, or the engine along
+the renormalised interpolated direction with the mass as a state) to t_f, on model "j2" (the
+problem's mu, j2, r_eq; the default) or "two-body" (j2 = 0). Its terminal error is
+[|r(t_f) - r_target| (m), 0]: the velocity at t_f is free, so the second entry is 0; its
+states are [r, v] (the mass is integrated but not returned) and a failed flight is status
+NONFINITE.
 """
 
 import functools
@@ -34,8 +43,10 @@ from ..dynamics.chief import anomaly_rate
 from ..dynamics.propagation import FLIGHT, solve_ode
 from ..orbits import elements_to_state, lvlh_to_relative_inertial, relative_inertial_to_lvlh
 from ..status import Status
+from .inertial import fly_burn
 
 MODELS = ("linear", "two-body", "j2")
+INERTIAL_MODELS = ("two-body", "j2")
 N_SAVE = 401
 
 
@@ -170,20 +181,22 @@ def default_model(problem) -> str:
 
 
 def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
-    """Fly `solution` (a relative transfer, frame LVLH; module docstring) on `model` (None:
-    its own), saving n_save uniform times; a batched solution flies member by member (its
-    leading axes on every output). Returns a `Flight`; never raises for a failed
-    integration (its status says so)."""
+    """Fly `solution` (a relative transfer, frame LVLH, or an intercept, frame inertial;
+    module docstring) on `model` (None: its own), saving n_save uniform times; a batched
+    solution flies member by member (its leading axes on every output). Returns a `Flight`;
+    never raises for a failed integration (its status says so)."""
     require_x64()
+    if isinstance(n_save, bool) or not isinstance(n_save, int) or n_save < 2:
+        raise ValueError(f"n_save must be an integer >= 2, got {n_save!r}")
+    if solution.frame == "inertial":
+        return _fly_inertial(solution, "j2" if model is None else model, n_save)
     if solution.frame != "LVLH":
-        raise ValueError(f"fly flies relative (LVLH) transfers, got a solution in the "
-                         f"{solution.frame!r} frame")
+        raise ValueError(f"fly flies relative (LVLH) transfers and intercepts (inertial), got "
+                         f"a solution in the {solution.frame!r} frame")
     problem = solution.problem
     model = default_model(problem) if model is None else model
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
-    if isinstance(n_save, bool) or not isinstance(n_save, int) or n_save < 2:
-        raise ValueError(f"n_save must be an integer >= 2, got {n_save!r}")
     j2 = jnp.asarray(getattr(problem, "j2", J2_EARTH) if model == "j2" else 0.0, jnp.float64)
     r_eq = jnp.asarray(getattr(problem, "r_eq", R_EARTH), jnp.float64)
 
@@ -198,3 +211,31 @@ def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
         one = jax.vmap(one)
     j2, r_eq = (jnp.broadcast_to(x, jnp.shape(solution.status)) for x in (j2, r_eq))
     return one(solution, j2, r_eq)
+
+
+@functools.partial(jax.jit, static_argnames="n_save")
+def _fly_intercept(solution, j2, n_save):
+    """One intercept flight: (times, [r, v] states, terminal error, plan error, status)."""
+    tr = solution.trajectory
+    ts = jnp.linspace(0.0, 1.0, n_save) * solution.duration
+    ys, ok = fly_burn(tr.state0, tr.burn(), solution.duration, ts, tr.mu, j2, tr.r_eq)
+    xs = ys[:, :6]
+    miss = jnp.linalg.norm(xs[-1, :3] - solution.problem.r_target)
+    status = jnp.where(ok, Status.SUCCESS, Status.NONFINITE).astype(jnp.int32)
+    return (ts, xs, jnp.stack([miss, jnp.zeros_like(miss)]),
+            _largest_difference(xs, solution.states(ts)), status)
+
+
+def _fly_inertial(solution, model, n_save) -> Flight:
+    """`fly` for an intercept (module docstring), member by member when batched."""
+    if model not in INERTIAL_MODELS:
+        raise ValueError(f"model must be one of {INERTIAL_MODELS} for an intercept, got "
+                         f"{model!r}")
+
+    def one(sol):
+        j2 = sol.trajectory.j2 if model == "j2" else jnp.zeros_like(sol.trajectory.j2)
+        return Flight(*_fly_intercept(sol, j2, n_save), model)
+
+    for _ in range(jnp.ndim(solution.status)):
+        one = jax.vmap(one)
+    return one(solution)

@@ -8,8 +8,10 @@ Frame: Earth-centred inertial, z along the Earth's rotation axis (equatorial; th
 
 mdot = F / (Isp g0) during a burn (Tsiolkovsky's constant mass flow), F = mdot = 0 for a
 coast. u_hat(t) is the barycentric interpolant of the nodal directions, renormalised to unit
-length (`ControlInterpolant` with magnitude 1: the constant-thrust engine flies the
-interpolated direction).
+length (a `jaxlpm.solution.ControlInterpolant` with magnitude 1, the `flight_control()` of a
+`FiniteBurn`: the constant-thrust engine flies the interpolated direction). `fly_burn` flies
+a whole intercept (coast, burn or impulse, coast); `jaxlpm.verify.fly` calls it for the
+solutions in the inertial frame.
 
 This is the check on the solvers, so it shares none of their integration choices: diffrax
 Tsit5 (Tsitouras' 5(4) pair) instead of Dopri8, rtol = atol = 1e-13 instead of 1e-12, fixed
@@ -27,19 +29,12 @@ from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import INDEPENDENT, solve_ode
 from ..status import Status
-from ..solution import ControlInterpolant
+from ..solution import Burn
 
 LENGTH = 1.0e7            # m: the integrator's length scale
 
 
-def direction_interpolant(grid, directions, t_start, duration) -> ControlInterpolant:
-    """u_hat(t) (unit, inertial) from nodal directions (grid.n, 3) at the grid's points mapped
-    to [t_start, t_start + duration] (s): barycentric interpolation, renormalised."""
-    return ControlInterpolant(grid.points, grid.point_bary, jnp.asarray(directions), t_start,
-                              t_start + duration, jnp.asarray(1.0))
-
-
-def fly(state, mass, t0, t1, control: ControlInterpolant = None, thrust=0.0, mass_rate=0.0,
+def fly(state, mass, t0, t1, control=None, thrust=0.0, mass_rate=0.0,
         mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None):
     """Integrate [r (m), v (m/s)] and the mass (kg) from t0 to t1 (s): a coast when `control`
     is None, else a burn of `thrust` (N) along control(t) with mass flow `mass_rate` (kg/s).
@@ -65,28 +60,35 @@ def fly(state, mass, t0, t1, control: ControlInterpolant = None, thrust=0.0, mas
     return (ys[-1] if ts is None else ys), status == Status.SUCCESS
 
 
-def fly_finite_burn(problem, solution, n_save: int = 0):
-    """Fly a `FiniteBurnSolution` of `problem` (`FiniteBurnProblem`) end to end with this
-    integrator: the coast of state0 from 0 to t_start, the burn of the renormalised
-    interpolated direction for `duration` (thrust, mass flow mdot), the coast to t_f.
+def fly_burn(state0, burn: Burn, t_f, ts, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH):
+    """Fly an intercept from t = 0 to t_f (s) with this integrator: the coast of state0
+    [r, v] (m, m/s) to burn.t_start, the burn of thrust burn.thrust (N) along burn.control
+    (renormalised direction, inertial) with mass flow burn.mass_rate (kg/s) to burn.t_end (no
+    burn arc when burn.control is None), burn.impulse (m/s) added to the velocity at t_end,
+    the coast to t_f. The mass starts at burn.mass (kg).
 
-    Returns (miss |r(t_f) - r_target| (m), final [r, v, m], ok, burn samples): ok is False
-    when any of the three flights failed (`fly`); with n_save > 0 the burn's samples (times
-    (n_save,), states (n_save, 7)), else None.
+    Returns (states [r, v, m] (len(ts), 7) at the times ts in [0, t_f]: before t_start on the
+    first coast, from t_start to before t_end on the burn, from t_end on the last coast (after
+    the impulse); ok: every flight succeeded (`fly`)).
     """
-    ip = problem.intercept
-    gravity = (ip.mu, ip.j2, ip.r_eq)
-    t_s, t_e = solution.t_start, solution.t_start + solution.duration
-    pre, ok0 = fly(ip.state0, problem.mass, 0.0, t_s, None, 0.0, 0.0, *gravity)
-    control = direction_interpolant(solution.grid, solution.node_directions, t_s,
-                                    solution.duration)
-    end, ok1 = fly(pre[:6], pre[6], t_s, t_e, control, problem.thrust, problem.mass_rate,
-                   *gravity)
-    final, ok2 = fly(end[:6], end[6], t_e, ip.t_f, None, 0.0, 0.0, *gravity)
-    samples = None
-    if n_save:
-        ts = jnp.linspace(t_s, t_e, n_save)
-        states, _ = fly(pre[:6], pre[6], t_s, t_e, control, problem.thrust, problem.mass_rate,
-                        *gravity, ts=ts)
-        samples = (ts, states)
-    return jnp.linalg.norm(final[:3] - ip.r_target), final, ok0 & ok1 & ok2, samples
+    gravity = (mu, j2, r_eq)
+    ts = jnp.asarray(ts)
+
+    def arc(y, t0, t1, control=None, thrust=0.0, mass_rate=0.0):
+        """States at ts clipped to [t0, t1], then the state at t1."""
+        at = jnp.concatenate([jnp.clip(ts, t0, t1), jnp.atleast_1d(t1)])
+        ys, ok = fly(y[:6], y[6], t0, t1, control, thrust, mass_rate, *gravity, ts=at)
+        return ys[:-1], ys[-1], ok
+
+    start = jnp.concatenate([jnp.asarray(state0), jnp.atleast_1d(burn.mass * 1.0)])
+    states0, y, ok = arc(start, 0.0, burn.t_start)
+    states1 = states0
+    if burn.control is not None:
+        states1, y, ok1 = arc(y, burn.t_start, burn.t_end, burn.control, burn.thrust,
+                              burn.mass_rate)
+        ok = ok & ok1
+    y = y + jnp.concatenate([jnp.zeros(3), burn.impulse, jnp.zeros(1)])
+    states2, _, ok2 = arc(y, burn.t_end, t_f)
+    ts = ts[:, None]
+    states = jnp.where(ts < burn.t_start, states0, jnp.where(ts < burn.t_end, states1, states2))
+    return states, ok & ok2
