@@ -28,9 +28,8 @@ import numpy as np
 
 from .._validation import require_x64
 from ..collocation import lgl
-from ..constants import J2_EARTH, R_EARTH
 from ..status import Status
-from ..verify.fly import MODELS, default_model, propagate_linear, propagate_nonlinear
+from ..verify.fly import flight_model, propagate_linear, propagate_nonlinear
 from .family import SweepFamily, problem_table, solution_record
 from .sweep import PERCENTILES, converged_statistics, map_in_groups, sweep
 
@@ -188,13 +187,9 @@ def execution_monte_carlo(key, plan, n: int, errors: ExecutionErrors, model: str
         raise ValueError(f"plan must be one (unbatched) LVLH Solution, got a {plan.frame} "
                          f"solution with status shape {np.shape(plan.status)}")
     problem = plan.problem
-    model = default_model(problem) if model is None else model
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    model, j2, r_eq = flight_model(problem, model)
     if int(n) < 1:
         raise ValueError(f"n must be a positive number of samples, got {n}")
-    j2 = jnp.asarray(getattr(problem, "j2", J2_EARTH) if model == "j2" else 0.0, jnp.float64)
-    r_eq = jnp.asarray(getattr(problem, "r_eq", R_EARTH), jnp.float64)
     draws = execution_draws(key, int(n), errors)
     rows = _fly_all(draws, plan.trajectory.flight_control(), problem, plan.duration, j2, r_eq,
                     model, min(int(batch_size), int(n) + 1))

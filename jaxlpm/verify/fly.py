@@ -180,6 +180,17 @@ def default_model(problem) -> str:
     return getattr(problem, "model", "linear")
 
 
+def flight_model(problem, model: str | None):
+    """(model, j2, r_eq) a relative flight of `problem` uses: `model` (None: the problem's
+    own, `default_model`), the problem's J2 coefficient on the "j2" model (else 0) and its
+    equatorial radius (m; the library's constants for a problem without them)."""
+    model = default_model(problem) if model is None else model
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    j2 = jnp.asarray(getattr(problem, "j2", J2_EARTH) if model == "j2" else 0.0, jnp.float64)
+    return model, j2, jnp.asarray(getattr(problem, "r_eq", R_EARTH), jnp.float64)
+
+
 def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
     """Fly `solution` (a relative transfer, frame LVLH, or an intercept, frame inertial;
     module docstring) on `model` (None: its own), saving n_save uniform times; a batched
@@ -193,12 +204,7 @@ def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
     if solution.frame != "LVLH":
         raise ValueError(f"fly flies relative (LVLH) transfers and intercepts (inertial), got "
                          f"a solution in the {solution.frame!r} frame")
-    problem = solution.problem
-    model = default_model(problem) if model is None else model
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
-    j2 = jnp.asarray(getattr(problem, "j2", J2_EARTH) if model == "j2" else 0.0, jnp.float64)
-    r_eq = jnp.asarray(getattr(problem, "r_eq", R_EARTH), jnp.float64)
+    model, j2, r_eq = flight_model(solution.problem, model)
 
     def one(sol, j2, r_eq):
         p = sol.problem
