@@ -2,7 +2,9 @@
 subprocess tests, and XLA's CPU backend at LLVM optimisation level 0: compile time dominates
 this suite, and level 0 cut tests/test_lq.py from 152 s to 120 s cold on the 2-core VM (the
 Newton two-body compile at lgl(9): 22 s to 21 s; its cost changed in the 16th digit). The
-whole suite passed at level 0 (453 tests). A level set in XLA_FLAGS is kept."""
+whole suite passed at level 0 (453 tests). A level set in XLA_FLAGS is kept. The pytest-xdist
+workers (pyproject's addopts) share the persistent cache; JAX treats an entry it cannot read
+(one being written by another worker) as a miss and compiles."""
 
 import os
 from pathlib import Path

@@ -119,7 +119,7 @@ def peer_data(problem):
     ocp, _, ok = transfer_ocp(problem, grid)
     r, (C, w, wd), q = ocp.node_data
     P = ocp.params
-    z0 = _warm_start(problem, ocp, grid)
+    z0, _ = _warm_start(problem, ocp, grid)
     node = jnp.concatenate([r, C.reshape(-1, 9), w, wd, q[:, None]], axis=1)      # (n, 19)
     glob = jnp.concatenate([jnp.stack([P["length"], P["n"], P["mu"], 0.5 * (ocp.sf - ocp.s0)]),
                             P["x0"], P["xf"]])                                     # (16,)
@@ -239,7 +239,7 @@ def time_pieces(pieces):
 def profile(prob, grid, sol):
     """Time the pieces of one solve, each jitted alone on the converged problem's data."""
     ocp, _, _ = transfer_ocp(prob, grid)
-    z0 = _warm_start(prob, ocp, grid)
+    z0, _ = _warm_start(prob, ocp, grid)
     lam = jnp.zeros(equality(z0, ocp, grid).shape)
     H = lagrangian_hessian(z0, lam, ocp, grid)
     A = equality_jacobian(z0, ocp, grid)
@@ -281,7 +281,7 @@ def profile(prob, grid, sol):
 def batched_lu(B, grid, prob):
     """Per-member time of a vmapped 987 x 987 LU (does batching help the dense solve?)."""
     ocp, _, _ = transfer_ocp(prob, grid)
-    z0 = _warm_start(prob, ocp, grid)
+    z0, _ = _warm_start(prob, ocp, grid)
     lam = jnp.zeros(equality(z0, ocp, grid).shape)
     H = lagrangian_hessian(z0, lam, ocp, grid)
     A = equality_jacobian(z0, ocp, grid)
@@ -296,7 +296,7 @@ def batched_lu(B, grid, prob):
 def profile_condensed(prob, grid, sol):
     """Time the pieces of one condensed solve, each jitted alone at the warm start."""
     ocp, _, _ = transfer_ocp(prob, grid)
-    z0 = _warm_start(prob, ocp, grid)
+    z0, _ = _warm_start(prob, ocp, grid)
     la = CondensedSecondOrder(ocp, grid)
     lam = la.first_multipliers(z0)
     prep = la.prepare(z0, lam)

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..dynamics.stm import IP, OP, ya_entries
 from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, small_spd_solve
-from ..orbits import lvlh_to_th, th_to_lvlh, time_from_true_anomaly, true_anomaly_from_time
+from ..orbits import lvlh_to_th, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
 from ..solution import Collocated, Solution
 
@@ -62,23 +62,31 @@ def _setup(problem, grid):
                 X0=X0, XT=XT, rho=rho)
 
 
-def lvlh_costates(p_th, f, e, k2, scale):
-    """Costates dJ/dx of the LVLH state (SI: J's unit per m and per m/s) from costates p of
-    the Tschauner-Hempel state at true anomalies f: x~ = T(f) x is linear (`lvlh_to_th`), so
-    dJ/dx = scale T(f)^T p, scale = dJ_SI / dJ_TH."""
-    def one(p, fi):
-        return jax.vjp(lambda x: lvlh_to_th(x, fi, e, k2), jnp.zeros_like(p))[1](p)[0]
-    return scale * jax.vmap(one)(p_th, f)
+def _lvlh_nodes(X_th, p_th, sf, cf, e, k2):
+    """Nodal LVLH states (m, m/s) and costates dJ/dx (SI) from the TH states X_th and the
+    TH costates p_th at true anomalies with sines sf and cosines cf, written out on the node
+    arrays so that sin f and cos f are evaluated once (Yamanaka & Ankersen 2002 eq. 81-82):
+    x = x~/rho, x_dot = k2 (rho x~' + e sin f x~). The map x~ = T x is linear and
+    J_SI = 1/2 int |u|^2 dt = k2^3 * 1/2 int |U|^2 / rho^2 df (u = k2^2 U,
+    dt = df / (k2 rho^2)), so dJ/dx = k2^3 T^T p = k2^3 [rho p_r - e sin f p_v, p_v / (k2 rho)].
+    k2 = sqrt(mu / p^3) (1/s), the orbit's `k2`."""
+    rho = (1.0 + e * cf)[:, None]
+    esf = (e * sf)[:, None]
+    pos, dpos = X_th[:, :3], X_th[:, 3:]
+    states = jnp.concatenate([pos / rho, k2 * (rho * dpos + esf * pos)], axis=1)
+    p_r, p_v = p_th[:, :3], p_th[:, 3:]
+    costates = k2**3 * jnp.concatenate([rho * p_r - esf * p_v, p_v / (k2 * rho)], axis=1)
+    return states, costates
 
 
-def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, stat_res, rcond):
-    """Assemble the Solution: SI outputs, costs, status; zero everything for invalid input."""
+def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, stat_res, rcond,
+            sf, cf):
+    """Assemble the Solution: SI outputs, costs, status; zero everything for invalid input.
+    sf, cf: sin and cos of the node true anomalies, computed once (`_materialized`)."""
     e, k2, rho, half = s["e"], s["k2"], s["rho"], s["half"]
     u = k2**2 * U_nodes                                          # m/s^2
     cost_f = 0.5 * half * jnp.sum(grid.weights * jnp.sum(u**2, axis=1) / rho**2)
-    states = jax.vmap(th_to_lvlh, in_axes=(0, 0, None, None))(X_nodes, s["f"], e, k2)
-    # J_SI = 1/2 int |u|^2 dt = k^6 * 1/2 int |U|^2 / rho^2 df (u = k^4 U, dt = df/(k^2 rho^2))
-    node_costates = lvlh_costates(costates, s["f"], e, k2, k2**3)
+    states, node_costates = _lvlh_nodes(X_nodes, costates, sf, cf, e, k2)
     outputs = dict(
         node_states=states, node_controls=u, cost=cost_f / k2, node_costates=node_costates,
         stats=dict(node_f=s["f"], node_states_th=X_nodes, cost_true_anomaly=cost_f,
@@ -245,7 +253,7 @@ def stm_law(problem, grid) -> Solution:
     for m, u in zip(vel, U_act):
         U[m - 3] = u
     return _finish("stm", s, grid, jnp.stack(X, axis=-1), jnp.stack(U, axis=-1),
-                   jnp.stack(costates, axis=-1), nu, con_res, stat_res, rcond)
+                   jnp.stack(costates, axis=-1), nu, con_res, stat_res, rcond, sf, cf)
 
 
 def _second_order_blocks(e, f):
@@ -371,5 +379,6 @@ def kkt_law(problem, grid) -> Solution:
         con.append(cr), stat.append(sr), rc.append(rcb)
     # Fahroo-Ross costate map: gamma_i = -(fT - f0)/2 w_i p(f_i) for defects written X' - AX - BU.
     costates = -gamma / (half * grid.weights)[:, None]
+    sf, cf = _materialized(jnp.sin(f), jnp.cos(f))
     return _finish("kkt", s, grid, X, U, costates, gamma, jnp.maximum(*con),
-                   jnp.maximum(*stat), jnp.minimum(*rc))
+                   jnp.maximum(*stat), jnp.minimum(*rc), sf, cf)
