@@ -20,7 +20,11 @@ ANGLES = ("i", "raan", "argp", "f0")
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class KeplerOrbit(Checked):
-    """A Keplerian orbit: a (m), e, i, raan, argp (rad) and the true anomaly f0 (rad) at t = 0.
+    """A Keplerian orbit (the chief's, or an intercept's target): semi-major axis a (m),
+    eccentricity e in [0, 1), inclination i, right ascension of the ascending node raan and
+    argument of perigee argp (rad, in the central body's inertial equatorial frame: ECI for
+    the Earth), the true anomaly f0 (rad) at t = 0, and the gravitational parameter mu
+    (m^3/s^2, the Earth's by default).
 
     Every field is an array leaf, so sweeps over e or a reuse one compiled function.
     """
