@@ -9,8 +9,9 @@ jax.config.update("jax_enable_x64", True).
 
 A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTransfer`,
 `MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`, `ImpulsiveIntercept`,
-`FiniteBurnIntercept`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `segmented_lgr`),
-`solve(problem, grid)` -> `Solution`, `verify.fly(solution)`, `batch` (sweeps, Monte Carlo),
+`FiniteBurnIntercept`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`: k
+segments; `segmented_lgr`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
+mesh refinement to the `Tolerance`; a solution that converged but misses it is INACCURATE), `verify.fly(solution)`, `batch` (sweeps, Monte Carlo),
 `lambert`, `Status`.
 """
 
@@ -20,16 +21,17 @@ _cpu_runtime.apply()
 
 from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
-from .collocation.segments import (SegmentedMesh, aligned_breaks, segmented_lgr,  # noqa: E402
-                                   uniform_breaks)
+from .collocation.segments import (LGRMesh, SegmentedMesh, aligned_breaks,  # noqa: E402
+                                   lgr_mesh, segmented_lgr, uniform_breaks)
 from .nlp import ALOptions, HomotopyOptions, NewtonOptions, OptimalControlProblem  # noqa: E402
 from .orbits import KeplerOrbit  # noqa: E402
 from .orbits.lambert import LambertSolution, lambert  # noqa: E402
 from .problems import (EnergyOptimalTransfer, FiniteBurnIntercept,  # noqa: E402
                        ImpulsiveIntercept, LQRTransfer, MinimumTimeTransfer)
 from .problems.fuel_optimal import FuelOptimalTransfer  # noqa: E402
-from .solution import Solution, SolveError  # noqa: E402
+from .solution import DEFAULT_TOLERANCE, Solution, SolveError, Tolerance  # noqa: E402
 from .solvers import solve  # noqa: E402
+from .solvers.refine import DEFAULT_LADDER, MeshLadder  # noqa: E402
 from .solvers.finite_burn import FiniteBurnOptions  # noqa: E402
 from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # noqa: E402
                                    refine_fuel_optimal, switching_function, switching_times)
@@ -41,6 +43,7 @@ from . import batch, nlp, verify  # noqa: E402
 __version__ = "0.2.0"
 
 __all__ = [
+    "DEFAULT_LADDER", "DEFAULT_TOLERANCE", "LGRMesh", "MeshLadder", "Tolerance", "lgr_mesh",
     "ALOptions", "CareSolution", "EnergyOptimalTransfer", "FiniteBurnIntercept",
     "FiniteBurnOptions", "FuelOptimalTransfer", "Grid", "HomotopyOptions",
     "ImpulsiveIntercept", "KeplerOrbit", "LQRTransfer", "LambertSolution",

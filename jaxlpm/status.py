@@ -15,6 +15,7 @@ class Status(enum.IntEnum):
     NOT_STABILISABLE = 6
     NOT_DETECTABLE = 7
     INFEASIBLE = 8
+    INACCURATE = 9
 
     def __str__(self) -> str:
         return self.name
@@ -48,6 +49,11 @@ _MESSAGES = {
     Status.NOT_DETECTABLE: (
         "no stabilising Riccati solution: (Q, A) is not detectable (a mode on the imaginary "
         "axis that the state weight Q does not see, e.g. an unweighted HCW axis)"
+    ),
+    Status.INACCURATE: (
+        "converged on its grid, but the grid does not resolve the transfer: the error estimate "
+        "between the nodes (stats['error_position'] m, stats['error_velocity'] m/s) exceeds "
+        "the tolerance; solve without a grid (mesh refinement) or on a finer one"
     ),
     Status.INFEASIBLE: (
         "locally infeasible: the constraint violation stopped decreasing with the penalty at "

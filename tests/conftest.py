@@ -26,6 +26,8 @@ import gc  # noqa: E402
 
 import pytest  # noqa: E402
 
+import jaxlpm as lpm  # noqa: E402
+
 
 @pytest.fixture(autouse=True, scope="module")
 def _release_compiled_programs():
@@ -49,3 +51,17 @@ SLOW_FILES_FIRST = ("test_verify.py", "test_newton.py", "test_api.py", "test_tan
 def pytest_collection_modifyitems(items):
     rank = {name: i for i, name in enumerate(SLOW_FILES_FIRST)}
     items.sort(key=lambda item: rank.get(item.path.name, len(SLOW_FILES_FIRST)))
+
+
+UNRESOLVED_OK = lpm.Tolerance(position=1e12, velocity=1e9, path=1e9)
+
+
+@pytest.fixture(scope="module")
+def loose_accuracy():
+    """For the modules that test a solver's algebra, validation or batching on grids chosen
+    small for speed, not to resolve the transfer (issue 19 made such solutions INACCURATE):
+    `solve`'s default tolerance there accepts any estimate. The estimate and the INACCURATE
+    status themselves are tested in tests/test_accuracy.py."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr("jaxlpm.solvers.api.DEFAULT_TOLERANCE", UNRESOLVED_OK)
+        yield

@@ -51,6 +51,9 @@ CASES = {
                                (1e-5, 1e-8)),
     # the J2 model (time <-> the chief's regularised anomaly tabulated): measured 8e-8 m
     "energy-newton-j2": (energy_problem("j2"), lpm.lgl(33), "newton", (1e-5, 1e-8)),
+    # multi-segment LGR (issue 19): its costates are the LGR estimates at every segment's
+    # points, joins included
+    "energy-newton-mesh": (energy_problem(), lpm.lgr_mesh(3, 12), "newton", (1e-5, 1e-8)),
     "min-time": (min_time_problem(), lpm.lg(16), None, (1e-5, 1e-8)),
     "fuel": (fuel_problem(), FUEL_MESH, None, (1e-5, 1e-8)),
 }

@@ -29,11 +29,11 @@ def test_examples_are_short_and_use_the_public_api(name):
 
 def test_eccentric_rendezvous(capsys):
     """33 points over 3 periods at e = 0.3 (not yet resolved: the flown misses are metres to
-    km; 65 points give millimetres, docs/newton.md): both plans converge, and on the J2 model
-    the J2 plan misses far less than the linear one (the linearisation, not the grid, is what
-    the linear plan lacks)."""
+    km; 65 points give millimetres, docs/newton.md): both plans converge and say they are not
+    resolved (INACCURATE), and on the J2 model the J2 plan misses far less than the linear
+    one (the linearisation, not the grid, is what the linear plan lacks)."""
     plans = load("eccentric_rendezvous").main(points=33)
-    assert all(bool(s.success) for s in plans.values())
+    assert all(int(s.status) == lpm.Status.INACCURATE for s in plans.values())
     misses = {k: float(lpm.verify.fly(s, model="j2").terminal_error[0])
               for k, s in plans.items()}
     assert misses["J2 plan"] < 0.1 * misses["linear plan"], misses
@@ -41,12 +41,13 @@ def test_eccentric_rendezvous(capsys):
 
 
 def test_sensitivity_study():
-    """4 x 4 cases on lgl(17): every case SUCCESS; the implicit gradient dJ/de of one case
+    """4 x 4 cases on lgl(17): every case converges (SUCCESS, or INACCURATE where 17 points do
+    not resolve it); the implicit gradient dJ/de of one case
     matches central differences of the same vmapped study (h = 1e-6: truncation ~1e-12,
     round-off ~1e-10 relative; 1e-5 asserted)."""
     study = load("sensitivity_study")
     e, rev, J, dJ_de, _, status = study.main(n=4, points=17)
-    assert np.all(np.asarray(status) == lpm.Status.SUCCESS)
+    assert np.all(np.isin(np.asarray(status), [lpm.Status.SUCCESS, lpm.Status.INACCURATE]))
     k = 5
     h = 1e-6
     grid = lpm.lgl(17)
@@ -55,7 +56,7 @@ def test_sensitivity_study():
         o = lpm.KeplerOrbit(a=6650e3 / (1.0 - e_), e=e_)
         x0 = np.array([10e3, 10e3, 0.0, 4.0, -23.485, 0.0])
         p = lpm.EnergyOptimalTransfer(o, x0, np.zeros(6), float(rev[k]) * o.period)
-        return float(lpm.solve(p, grid).cost)
+        return float(lpm.solve(p, grid, throw=False).cost)
 
     fd = (cost(float(e[k]) + h) - cost(float(e[k]) - h)) / (2 * h)
     assert float(dJ_de[k]) == pytest.approx(fd, rel=1e-5)
@@ -63,10 +64,10 @@ def test_sensitivity_study():
 
 def test_monte_carlo_j2():
     """4 dispersed J2 rendezvous on lgl(17), re-planned by Newton-KKT through the sweep
-    engine: every sample SUCCESS, and each record obeys Cauchy-Schwarz between its delta-v
+    engine: every sample converges (SUCCESS, or INACCURATE on so small a grid), and each record obeys Cauchy-Schwarz between its delta-v
     and its energy cost, dv^2 <= 2 J T (equality only for a constant |u|)."""
     result = load("monte_carlo_j2").main(n=4, points=17)
     t = result.tables[17]
-    assert np.all(t["status"] == lpm.Status.SUCCESS)
+    assert np.all(np.isin(t["status"], [lpm.Status.SUCCESS, lpm.Status.INACCURATE]))
     assert np.all(t["delta_v"] ** 2 <= 2.0 * t["cost"] * t["duration"])
     assert np.all(t["delta_v"] > 0.0)

@@ -13,6 +13,9 @@ from jaxlpm import (EnergyOptimalTransfer, KeplerOrbit, SolveError, Status, lg, 
                     solve)
 from jaxlpm.dynamics import elliptic_lvlh_matrix  # noqa: E402
 
+# small grids for speed: solutions that converge unresolved are accepted (conftest)
+pytestmark = pytest.mark.usefixtures("loose_accuracy")
+
 X0 = jnp.array([10000.0, 10000.0, 500.0, 4.0, -23.485, 0.3])   # Mei's case plus out-of-plane
 N_TEST = 32                                                      # modest: compile time dominates
 

@@ -31,6 +31,9 @@ import scipy.integrate  # noqa: E402
 import scipy.linalg  # noqa: E402
 import scipy.optimize  # noqa: E402
 
+# small grids for speed: solutions that converge unresolved are accepted (conftest)
+pytestmark = pytest.mark.usefixtures("loose_accuracy")
+
 QUICK = {"xla_backend_optimization_level": 0}
 K = 16
 
@@ -253,6 +256,9 @@ def test_thrust_levels_converge_on_a_resolving_grid(smooth, solve_low, low_thrus
     assert abs(float(fast.duration) - float(sol.duration)) < 1e-6
     prob, low = low_thrust
     assert int(low.status) == Status.SUCCESS, low.message
+    # converged, but 64 LG points do not resolve 5 orbits (t_f is 1.8 s off, see below): at
+    # the default tolerance this solution is INACCURATE (this module accepts it, conftest)
+    assert bool(lpm.solution.accuracy.inaccurate(low.stats, lpm.DEFAULT_TOLERANCE))
     assert float(low.stats["path_residual"]) <= 1e-9
     np.testing.assert_allclose(np.linalg.norm(np.asarray(low.stats["node_directions"]), axis=1), 1.0,
                                atol=1e-9)

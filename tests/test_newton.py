@@ -21,6 +21,9 @@ from jaxlpm.nlp import transcription as tr
 from jaxlpm.nlp import newton_kkt
 from jaxlpm.solvers.transfer import newton_transfer
 
+# small grids for speed: solutions that converge unresolved are accepted (conftest)
+pytestmark = pytest.mark.usefixtures("loose_accuracy")
+
 # XLA's backend optimisation is most of these solvers' compile time and buys little for
 # functions run a few times: compile the tests' solves without it (as the CLI's one-off solves).
 QUICK = {"xla_backend_optimization_level": 0}

@@ -1,7 +1,7 @@
 """The sweep engine: one compile per grid size, the same numbers on 4 devices as on 1,
 resuming after kill -9 without recomputing a finished chunk, refusing a different sweep's
 directory, the checks at the Python boundary, and a sweep of another family (minimum time
-over thrust, with derivatives). Small grids (lgl(9), lgl(33); lg(8)) and the cheap KKT law:
+over thrust, with derivatives). Small grids (lgl(9), lgl(33); lg(12)) and the cheap KKT law:
 compile time dominates, and the persistent cache (JAXLPM_CACHE_DIR, set by conftest.py)
 serves the subprocesses."""
 
@@ -28,6 +28,7 @@ from jaxlpm.batch import (SweepFamily, load_sweep, parameter_grid, sensitivity_f
                           sweep, transfer_family)
 from jaxlpm.cases import duan, mei2010  # noqa: E402
 from jaxlpm.status import Status  # noqa: E402
+
 
 # 4 x 3 = 12 members in chunks of 4: 3 chunks per grid size, 6 in all. The CLI's 'a:b:n' is
 # linspace, so the in-process reference and the subprocesses run the same sweep definition.
@@ -75,14 +76,20 @@ def test_one_trace_per_grid_size_and_results(reference):
     assert sorted(m["chunks"])[0] == "points33/chunk_00000"
     assert m["definition"]["family_definition"]["held_when_e_varies"].startswith("perigee")
     assert m["definition"]["family_definition"]["method"] == "kkt"
-    assert result.converged() == {n: 12 for n in POINTS}
+    # converged everywhere; SUCCESS where the grid also resolves the transfer (issue 19), the
+    # rest INACCURATE, counted apart
+    for n in POINTS:
+        status = result.tables[n]["status"]
+        assert np.all(np.isin(status, [Status.SUCCESS, Status.INACCURATE]))
+        assert result.converged()[n] == int(np.sum(status == Status.SUCCESS))
     t = result.tables[33]
     assert np.array_equal(t["index"], np.arange(12))
     np.testing.assert_array_equal(t["e"], PARAMS["e"])
     # Held perigee radius: the member with e = 0.3, 3 revolutions is mei2010's own case. The
     # same law on the same grid outside the sweep: equal to round-off (1e-12 relative).
     k = int(np.flatnonzero((t["e"] == 0.3) & (t["revolutions"] == 3.0))[0])
-    assert t["cost"][k] == pytest.approx(float(solve(mei2010.problem(), lgl(33), method="kkt").cost),
+    assert t["cost"][k] == pytest.approx(float(solve(mei2010.problem(), lgl(33), method="kkt",
+                                                          throw=False).cost),
                                          rel=1e-12)
     # The target (origin, at rest) is an equilibrium, so a longer transfer of the same
     # rendezvous can arrive early and wait: the optimal cost cannot grow with the duration.
@@ -129,7 +136,7 @@ def test_four_devices_agree_with_one(reference, tmp_path):
                    stderr=subprocess.STDOUT, text=True)
     log = proc.communicate(timeout=300)[0]
     assert proc.returncode == 0, log
-    assert "  33 points: 12/12 converged" in log
+    assert f"  33 points: {result.converged()[33]}/12 converged" in log
     assert manifest(tmp_path / "four")["runs"][0]["devices"] == 4
     four = load_sweep(tmp_path / "four")
     for n in POINTS:
@@ -171,7 +178,7 @@ def test_kill_then_resume(reference, tmp_path):
         assert (out / f).stat().st_mtime_ns == mtime
         assert m["chunks"][f"{f.parent}/{f.stem}"]["run"] == 0
     assert sum(c["run"] == 1 for c in m["chunks"].values()) == N_CHUNKS - len(before)
-    assert m["summary"]["33"]["converged"] == 12
+    assert m["summary"]["33"]["converged"] == result.converged()[33]
     resumed = load_sweep(out)
     for n in POINTS:                           # the same executable: the same bits
         for name, col in result.tables[n].items():
@@ -330,6 +337,7 @@ jax.distributed.initialize("127.0.0.1:{port}", num_processes=2, process_id=int(s
 from jaxlpm.batch import SweepFamily, sweep
 from jaxlpm.status import Status
 
+
 def solver(p, grid, method, options):
     return dict(status=jnp.where(p["x"] > 0.8, Status.MAX_ITERATIONS, Status.SUCCESS).astype(
         jnp.int32), value=p["x"] * p["x"] * grid + 1.0, pair=jnp.stack([p["x"], -p["x"]]))
@@ -441,23 +449,24 @@ H = 1e-4             # N: the central-difference step in the thrust (1e-4 relati
 @pytest.fixture(scope="module")
 def min_time_sensitivities():
     """Minimum-time transfers at thrust 1 N, 1 N +- H and 0 N (invalid: INVALID_INPUT) on
-    lg(8), by the generic family (`jaxlpm.solve`'s default method) with derivatives: one
+    lg(12) (lg(8) leaves 1.2e-4 m/s between the nodes: INACCURATE), by the generic family
+    (`jaxlpm.solve`'s default method) with derivatives: one
     compile (~15 s)."""
     fam = SweepFamily("min-time", build=lambda p: min_time_problem(p["thrust"]), grid=lpm.lg)
     thrust = np.array([1.0, 1.0 + H, 1.0 - H, 0.0])
-    return sweep(sensitivity_family(fam), dict(thrust=thrust), [8], progress=False)
+    return sweep(sensitivity_family(fam), dict(thrust=thrust), [12], progress=False)
 
 
 def test_a_minimum_time_sweep_over_thrust(min_time_sensitivities):
     """The default record of another family: status, cost (t_f, s), duration, delta_v and
     the AL's scalar stats; the invalid member counted and listed apart, never averaged in."""
     result = min_time_sensitivities
-    t = result.tables[8]
+    t = result.tables[12]
     assert t["status"].tolist() == [Status.SUCCESS] * 3 + [Status.INVALID_INPUT]
-    s = result.summary()["8"]
+    s = result.summary()["12"]
     assert s["status_counts"] == {"SUCCESS": 3, "INVALID_INPUT": 1}
     assert s["not_converged"] == [3]
-    stats = result.statistics(columns=("cost",))[8]["cost"]
+    stats = result.statistics(columns=("cost",))[12]["cost"]
     assert stats["converged"] == 3 and stats["not_converged"] == [3]
     assert stats["max"] == pytest.approx(t["cost"][2], rel=1e-15)     # the invalid 0 left out
     ok = slice(0, 3)
@@ -472,7 +481,7 @@ def test_a_minimum_time_sweep_over_thrust(min_time_sensitivities):
     assert {"outer_iterations", "inner_iterations", "path_residual"} <= set(t)
     # the sweep's member is the public solve's (one member at a time in both: same arithmetic
     # but for XLA's fusion of the lax.map; 1e-12 relative)
-    direct = solve(min_time_problem(jnp.asarray(1.0)), lpm.lg(8))
+    direct = solve(min_time_problem(jnp.asarray(1.0)), lpm.lg(12))
     assert float(direct.cost) == pytest.approx(t["cost"][0], rel=1e-12)
 
 
@@ -482,7 +491,7 @@ def test_minimum_time_sensitivities_against_central_differences(min_time_sensiti
     with O(1) relative third derivatives (1e-8) plus the solver's tolerance over the step
     (1e-10 / 1e-4): 1e-6. The control gain d u(0) / d x0 of a constant-magnitude control is
     orthogonal to u(0) (|u| = T / m whatever x0): to round-off of |u| |gain| (1e-12)."""
-    t = min_time_sensitivities.tables[8]
+    t = min_time_sensitivities.tables[12]
     for out in ("cost", "delta_v"):
         central = (t[out][1] - t[out][2]) / (2 * H)
         assert t[f"d{out}_dthrust"][0] == pytest.approx(central, rel=1e-6)

@@ -103,3 +103,98 @@ def aligned_breaks(s0: float, sf: float, k: int, switches, min_gap: float = 1e-6
     counts[np.argsort(-(share - np.floor(share)))[:extra]] += 1
     pieces = [np.linspace(a, b, c + 1)[:-1] for a, b, c in zip(edges[:-1], edges[1:], counts)]
     return np.concatenate(pieces + [[sf]])
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class LGRMesh:
+    """K segments of one LGR grid on tau in [-1, 1], seen as one grid (the hp meshes of
+    Darby, Hager & Rao 2011 and Patterson, Hager & Rao 2015, in the form of Garg et al. 2010's
+    multi-interval Radau method).
+
+    It has the attributes of an LGR `Grid` that the transcription reads (`scheme` "LGR",
+    `n` = K n_k collocation points, `points`, `weights`, `support`, `D`), so every solver of
+    `jaxlpm.nlp` runs on it unchanged: segment k's n_k Radau points (its start collocated)
+    and its end, which is the next segment's first point (the state is continuous by
+    construction), give the state rows [points, +1]; D is block bidiagonal, segment k's rows
+    the LGR matrix times 2 / (b_{k+1} - b_k) on its n_k + 1 rows; weights are the LGR weights
+    times (b_{k+1} - b_k) / 2. A control may jump at a break.
+
+    breaks   (K + 1,) increasing tau in [-1, 1] (an array leaf: moving them recompiles
+             nothing); segment: `lgr(n_k)` (static). Build with `lgr_mesh`.
+    """
+
+    breaks: jax.Array
+    segment: Grid
+
+    scheme = "LGR"
+
+    @property
+    def n_segments(self) -> int:
+        return self.breaks.shape[-1] - 1
+
+    @property
+    def n(self) -> int:
+        return self.n_segments * self.segment.n
+
+    @property
+    def _half(self):
+        return 0.5 * jnp.diff(self.breaks)                               # (K,)
+
+    @property
+    def points(self):
+        """tau of the K n_k collocation points, segment by segment."""
+        g = self.segment
+        return (self.breaks[:-1, None] + self._half[:, None] * (jnp.asarray(g.points) + 1.0)
+                ).reshape(-1)
+
+    @property
+    def weights(self):
+        return (self._half[:, None] * jnp.asarray(self.segment.weights)).reshape(-1)
+
+    @property
+    def support(self):
+        """tau of the K n_k + 1 state rows."""
+        return jnp.concatenate([self.points, self.breaks[-1:]])
+
+    @property
+    def D(self):
+        """(K n_k, K n_k + 1) block bidiagonal differentiation matrix in tau."""
+        k, m = self.n_segments, self.segment.n
+        seg, i, j = np.meshgrid(np.arange(k), np.arange(m), np.arange(m + 1), indexing="ij")
+        values = jnp.asarray(self.segment.D)[None] / self._half[:, None, None]
+        return jnp.zeros((k * m, k * m + 1), values.dtype).at[
+            seg * m + i, seg * m + j].set(values)
+
+    def locate(self, tau):
+        """(segment index k, local tau in [-1, 1]) of a scalar tau (a break belongs to the
+        later segment; the ends clip into the first and last)."""
+        k = jnp.clip(jnp.searchsorted(self.breaks, tau, side="right") - 1, 0,
+                     self.n_segments - 1)
+        return k, (tau - self.breaks[k]) / self._half[k] - 1.0
+
+    def interpolate_state(self, values, tau):
+        """State interpolant at scalar tau: values (K n_k + 1, ...) on `support`, segment k's
+        polynomial on its n_k + 1 rows."""
+        k, local = self.locate(tau)
+        g = self.segment
+        rows = jax.lax.dynamic_slice_in_dim(values, k * g.n, g.n + 1)
+        return g.interpolate_state(rows, local)
+
+    def interpolate_control(self, values, tau):
+        """Control interpolant at scalar tau: values (K n_k, ...), segment k's n_k points."""
+        k, local = self.locate(tau)
+        g = self.segment
+        rows = jax.lax.dynamic_slice_in_dim(values, k * g.n, g.n)
+        return g.interpolate_control(rows, local)
+
+
+def lgr_mesh(k: int, n: int, breaks=None) -> LGRMesh:
+    """`LGRMesh` of k segments of lgr(n) on tau in [-1, 1]: breaks (k + 1 increasing values
+    from -1 to 1) or, by default, k equal segments."""
+    b = uniform_breaks(-1.0, 1.0, k) if breaks is None else np.asarray(breaks, np.float64)
+    if b.shape != (k + 1,) or not np.all(np.isfinite(b)) or not np.all(np.diff(b) > 0.0) \
+            or b[0] != -1.0 or b[-1] != 1.0:
+        raise ValueError(f"breaks must be {k + 1} strictly increasing values from -1 to 1, "
+                         f"got {b}")
+    return LGRMesh(breaks=jnp.asarray(b), segment=lgr(n))

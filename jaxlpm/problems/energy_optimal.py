@@ -48,11 +48,13 @@ from ..dynamics import (lvlh_frame_motion, relative_lvlh_acceleration,
                         tschauner_hempel_matrix)
 from ..dynamics.chief import (anomaly_rate, j2_chief, j2_final_anomaly, kepler_chief,
                               kepler_final_anomaly)
+from ..nlp.accuracy import check_flight, check_mesh, collocation_defects
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import (collocated_rows, collocation_s, costates, objective,
                                  state_s, state_tau, unpack)
 from ..orbits import KeplerOrbit, lvlh_to_th, th_to_lvlh
 from ..solution import Collocated, Solution
+from ..solution.accuracy import accuracy_stats
 from .scaling import length_scale
 
 MODELS = ("linear", "two-body", "j2")
@@ -252,6 +254,28 @@ def transfer_ocp(problem: EnergyOptimalTransfer, grid):
     return ocp, chief, ok_f & ok_c
 
 
+def scaled_rows(solution):
+    """(state rows, controls) of a Newton-KKT `Solution` in the solver's units (the inverse of
+    `to_solution`'s unscaling: `model_state` of its LVLH rows, controls / `control_scale`)."""
+    problem = solution.problem
+    X = jax.vmap(lambda x, s: model_state(problem, x, s))(solution.node_states,
+                                                          solution.stats["state_s"])
+    return X, solution.node_controls / control_scale(problem)
+
+
+def collocation_accuracy(problem: EnergyOptimalTransfer, grid, X, U):
+    """`jaxlpm.solution.accuracy` stats (SI, LVLH) of the solution with scaled state rows X
+    and controls U on `grid` (the units of `transfer_ocp`): the GPOPS-II estimate on the
+    check mesh, whose chief is sampled at the check points, the errors mapped to LVLH
+    (`lvlh_state` is linear in the state at a given anomaly)."""
+    check = check_mesh(grid)
+    ocp_check, _, _ = transfer_ocp(problem, check)
+    d = collocation_defects(ocp_check, check, grid, X, U)
+    flown = check_flight(ocp_check, check, grid, X, U)
+    to_si = jax.vmap(jax.vmap(lambda x, s: lvlh_state(problem, x, s)))
+    return accuracy_stats(to_si(flown - d.states, d.s), d.relative)
+
+
 def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status, valid):
     """The `Solution` (SI, LVLH) of the transcribed transfer solved to `result` (an
     `NLPResult` of `transfer_ocp(problem, grid)`, whose chief samples are `chief`): states
@@ -288,5 +312,6 @@ def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status
                    costates_scaled=keep(lam), multipliers=keep(result.multipliers),
                    constraint_residual=keep(result.constraint_residual),
                    stationarity_residual=keep(result.stationarity_residual),
-                   iterations=result.iterations, history=keep(result.history)),
+                   iterations=result.iterations, history=keep(result.history),
+                   **collocation_accuracy(problem, grid, X, U)),
         method="newton")

@@ -37,9 +37,11 @@ from .._validation import Checked, Rule, coerce_sequences
 from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
 from .scaling import length_scale, state_scale
+from ..nlp.accuracy import check_flight, check_mesh, collocation_defects
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import collocation_s, costates, state_s, unpack
 from ..solution import Collocated, Solution, zero_invalid
+from ..solution.accuracy import accuracy_stats
 
 
 @jax.tree_util.register_dataclass
@@ -166,6 +168,21 @@ def duration_lower_bound(problem: MinimumTimeTransfer):
     return jnp.linalg.norm(invariants(problem.xf) - invariants(problem.x0)) / problem.acceleration
 
 
+def _direction(u):
+    norm = jnp.linalg.norm(u)
+    return u / jnp.where(norm > 0.0, norm, 1.0)
+
+
+def collocation_accuracy(problem: MinimumTimeTransfer, ocp, grid, X, U, sf):
+    """`jaxlpm.solution.accuracy` stats (SI, LVLH) of the solution with scaled state rows X
+    and directions U: the GPOPS-II estimate and the check-mesh flight with the engine along
+    the renormalised interpolated direction (what the trajectory flies)."""
+    check = check_mesh(grid)
+    d = collocation_defects(ocp, check, grid, X, U, sf, _direction)
+    flown = check_flight(ocp, check, grid, X, U, sf, _direction)
+    return accuracy_stats((flown - d.states) * state_scale(problem), d.relative)
+
+
 def to_solution(problem: MinimumTimeTransfer, ocp, grid, result, status, valid, t_lb):
     """The `Solution` (SI, LVLH) of the transcribed problem solved to `result` (an `ALResult`
     of `min_time_ocp`): duration t_f = (s_f - s0) / n (the cost), states and the thrust
@@ -175,7 +192,9 @@ def to_solution(problem: MinimumTimeTransfer, ocp, grid, result, status, valid, 
     stats: node_s, state_s (s = s0 + n t at the collocation points and state rows),
     node_directions (u_hat), costates_scaled, multipliers, path_multipliers,
     constraint_residual, path_residual, stationarity_residual, complementarity (scaled
-    units), outer_iterations, inner_iterations, history, duration_lower_bound (t_lb, s)."""
+    units), outer_iterations, inner_iterations, history, duration_lower_bound (t_lb, s), and
+    the error estimate (`collocation_accuracy`: error_position m, error_velocity m/s,
+    relative_error, segment_error, path_violation)."""
     def keep(tree):
         return zero_invalid(valid, tree)
 
@@ -201,6 +220,7 @@ def to_solution(problem: MinimumTimeTransfer, ocp, grid, result, status, valid, 
             path_residual=result.path_residual,
             stationarity_residual=result.stationarity_residual,
             complementarity=result.complementarity, outer_iterations=result.outer_iterations,
-            inner_iterations=result.inner_iterations, history=result.history))
+            inner_iterations=result.inner_iterations, history=result.history,
+            **collocation_accuracy(problem, ocp, grid, X, U, sf)))
         | dict(duration_lower_bound=t_lb),
         method="augmented-lagrangian")

@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 
 from ..collocation import Grid, barycentric_interpolate
-from ..collocation.segments import SegmentedMesh
+from ..collocation.segments import LGRMesh, SegmentedMesh
 from ..orbits import th_to_lvlh, true_anomaly_from_time
 
 CLOCKS = ("true-anomaly", "uniform", "tabulated")
@@ -50,6 +50,11 @@ def _unit(v, magnitude):
     return jnp.where(magnitude > 0.0, magnitude * v / jnp.where(norm > 0.0, norm, 1.0), v)
 
 
+def _to_tau(x, x0, x1):
+    """x in [x0, x1] -> tau in [-1, 1]."""
+    return 2.0 * (x - x0) / (x1 - x0) - 1.0
+
+
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class ControlInterpolant:
@@ -66,8 +71,26 @@ class ControlInterpolant:
     variable: str = _static("time")
 
     def __call__(self, x):
-        t = 2.0 * (x - self.x0) / (self.x1 - self.x0) - 1.0
-        return _unit(barycentric_interpolate(self.tau, self.bary, self.values, t),
+        return _unit(barycentric_interpolate(self.tau, self.bary, self.values,
+                                             _to_tau(x, self.x0, self.x1)), self.magnitude)
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class MeshControl:
+    """u(x) on an `LGRMesh` mapped to x in [x0, x1]: the segment holding x, then its
+    barycentric interpolant over the segment's Radau points; with magnitude > 0 its direction
+    at that magnitude."""
+
+    mesh: LGRMesh
+    values: jax.Array
+    x0: jax.Array
+    x1: jax.Array
+    magnitude: jax.Array = 0.0
+    variable: str = _static("time")
+
+    def __call__(self, x):
+        return _unit(self.mesh.interpolate_control(self.values, _to_tau(x, self.x0, self.x1)),
                      self.magnitude)
 
 
@@ -80,10 +103,12 @@ def padded_size(n: int) -> int:
     return size
 
 
-def control_interpolant(grid: Grid, values, x0, x1, magnitude=0.0,
-                        variable="time") -> ControlInterpolant:
+def control_interpolant(grid, values, x0, x1, magnitude=0.0, variable="time"):
     """`values` (n, 3) at the grid's collocation points as a `ControlInterpolant` over
-    [x0, x1], zero-padded to `padded_size(n)` points."""
+    [x0, x1], zero-padded to `padded_size(n)` points (an `LGRMesh`: a `MeshControl`)."""
+    if isinstance(grid, LGRMesh):
+        return MeshControl(grid, values, x0, x1, jnp.asarray(magnitude, values.dtype),
+                           variable)
     pad = padded_size(grid.n) - grid.n
     return ControlInterpolant(
         tau=jnp.pad(jnp.asarray(grid.points), (0, pad), constant_values=_FAR),

@@ -9,7 +9,7 @@ them (iterations, residuals, multipliers, histories, a paper's cost normalisatio
 `stats`, a dict whose keys each family documents.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import jax
@@ -79,6 +79,9 @@ class Solution:
     stats: dict
     method: str = field(default="", metadata=dict(static=True))
     frame: str = field(default="LVLH", metadata=dict(static=True))
+
+    def replace(self, **kwargs) -> "Solution":
+        return replace(self, **kwargs)
 
     # ---- health -------------------------------------------------------------------------
 

@@ -19,7 +19,7 @@ Grids count their points: `lgl(65)` has 65 LGL points (Mei 2010's degree N = 64)
 import numpy as np
 
 from .._validation import is_concrete, require_x64
-from ..solution import Solution, SolveError
+from ..solution import DEFAULT_TOLERANCE, Solution, SolveError, Tolerance, judge
 from ..status import Status
 from . import energy_optimal, fuel_optimal, min_time
 from . import finite_burn, impulsive, lqr
@@ -28,13 +28,16 @@ FAMILIES = {f.problem: f for f in (energy_optimal.FAMILY, min_time.FAMILY, fuel_
                                    lqr.FAMILY, impulsive.FAMILY, finite_burn.FAMILY)}
 
 
-def solve(problem, grid=None, *, method=None, options=None, throw=True) -> Solution:
+def solve(problem, grid=None, *, method=None, options=None, tolerance=None,
+          throw=True) -> Solution:
     """Solve a transfer problem of any family; returns a `Solution` (SI; module table).
 
     grid: a `Grid` (lgl(n), lg(n), lgr(n): n points) or, for fuel-optimal transfers, a
     `SegmentedMesh` (breaks as fractions of the duration); None: the family's default.
     method: None for the family's default. options: the method's frozen options object
     (`NewtonOptions`, `ALOptions`, `HomotopyOptions`) or None for its defaults.
+    tolerance: a `Tolerance` (SI: position m, velocity m/s; None: `DEFAULT_TOLERANCE`): a
+    converged solution whose error estimate between the nodes exceeds it is INACCURATE.
     throw: an unbatched, concrete solve that does not end SUCCESS raises `SolveError` (its
     `.status` and `.solution` say what happened); throw=False returns the solution with its
     status. Under jit/vmap/grad nothing raises: the status is per member.
@@ -46,7 +49,11 @@ def solve(problem, grid=None, *, method=None, options=None, throw=True) -> Solut
         names = ", ".join(sorted(p.__name__ for p in FAMILIES))
         raise ValueError(f"solve takes a problem of one of the families {names}, got "
                          f"{type(problem).__name__}")
-    solution = family.solve(problem, grid, method, options)
+    tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
+    if not isinstance(tolerance, Tolerance):
+        raise ValueError(f"tolerance must be a jaxlpm Tolerance, got {tolerance!r:.60}")
+    solution = family.solve(problem, grid, method, options,
+                            lambda sol: judge(sol, tolerance))
     if (throw and is_concrete(solution.status) and np.ndim(solution.status) == 0
             and int(solution.status) != Status.SUCCESS):
         raise SolveError(solution)

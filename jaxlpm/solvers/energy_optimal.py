@@ -9,19 +9,32 @@ grid, "newton" otherwise; default grid lgl(65) (Mei 2010's N = 64).
 
 `Solution.stats`: node_f / node_s (the independent variable at the collocation points, rad),
 cost_true_anomaly (k^2 cost, m^2/s^4: Mei 2010 eq. 8's normalisation), multipliers,
-constraint_residual, stationarity_residual, and per method: rcond, node_states_th,
-costates_th (the laws), iterations, history, costates_scaled (Newton-KKT).
+constraint_residual, stationarity_residual, the error estimate between the nodes
+(error_position m, error_velocity m/s, relative_error, segment_error, path_violation:
+`jaxlpm.solution.accuracy`), and per method: rcond, node_states_th, costates_th (the laws),
+iterations, history, costates_scaled (Newton-KKT), rung (the refinement rung, `solve` without
+a grid).
+
+`solve(problem)` without a grid, for a concrete problem, refines the mesh (`refine_transfer`:
+Newton-KKT on the `MeshLadder` of `LGRMesh` shapes until the estimate meets the tolerance);
+traced (under jit/vmap) it solves on the default grid and reports the estimate and status
+(batches refine with `jaxlpm.batch.refine.refine_batch`).
 """
 
+import dataclasses
 import functools
 
 import jax
+import jax.numpy as jnp
 
 from ..collocation import Grid, lgl
+from ..collocation.segments import LGRMesh
 from ..nlp.newton import NewtonOptions
 from ..problems import EnergyOptimalTransfer
 from .family import FamilySolver
 from .lq import kkt_law, stm_law
+from ..problems.energy_optimal import scaled_rows
+from .refine import DEFAULT_LADDER, MeshLadder, interpolated_guess, refine
 from .transfer import newton_transfer
 
 DEFAULT_POINTS = 65            # Mei 2010's N = 64
@@ -35,14 +48,56 @@ def _newton(problem, grid, options):
     return newton_transfer(problem, grid, options)
 
 
+@functools.partial(jax.jit, static_argnames="options")
+def _newton_from(problem, grid, options, z0):
+    return newton_transfer(problem, grid, options, z0=z0)
+
+
+@jax.jit
+def _guess(solution, mesh):
+    """z0 on `mesh` from a Newton-KKT solution on a coarser mesh (`interpolated_guess` of its
+    scaled state rows and controls)."""
+    X, U = interpolated_guess(*scaled_rows(solution), solution.grid, mesh)
+    return jnp.concatenate([X.reshape(-1), U.reshape(-1)])
+
+
+def rung_options(options: NewtonOptions, segments: int) -> NewtonOptions:
+    """The options of a rung of K segments: the defects are written in the mesh's tau on
+    [-1, 1], so a segment K times shorter than the whole has a differentiation matrix K times
+    larger; the same accuracy of its local defects (and the same round-off floor) is K times
+    the residual."""
+    return dataclasses.replace(options, tol_feasibility=options.tol_feasibility * segments)
+
+
+def refine_transfer(problem, options, judge, ladder: MeshLadder = DEFAULT_LADDER):
+    """Newton-KKT on the `MeshLadder` until the estimate meets the tolerance
+    (`jaxlpm.solvers.refine`): every model; the first rung from the linear model's warm start,
+    each next one from the previous solution."""
+    options = NewtonOptions() if options is None else options
+
+    def solve_on(mesh, z0):
+        rung = rung_options(options, mesh.n_segments)
+        return (_newton(problem, mesh, rung) if z0 is None
+                else _newton_from(problem, mesh, rung, z0))
+
+    return refine(solve_on, _guess, ladder, judge)
+
+
 def default_method(problem, grid):
     """The KKT law for the linear model on an LGL grid, Newton-KKT otherwise."""
     return "kkt" if problem.model == "linear" and grid.scheme == "LGL" else "newton"
 
 
 def check_grid(grid, method):
+    if isinstance(grid, LGRMesh) and method == "newton":
+        if grid.segment.n < MIN_NEWTON_POINTS["LGR"]:
+            raise ValueError(f"the Newton-KKT solver needs at least "
+                             f"{MIN_NEWTON_POINTS['LGR']} LGR points per segment, got "
+                             f"{grid.segment.n}")
+        return
     if not isinstance(grid, Grid):
-        raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(n), lgr(n): n points), got "
+        raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(n), lgr(n): n points) or, "
+                         f"for method 'newton', an LGRMesh (lgr_mesh(k, n)), got "
                          f"{grid!r:.60}")
     if method == "newton":
         if grid.n < MIN_NEWTON_POINTS[grid.scheme]:
@@ -70,4 +125,5 @@ def run(problem, grid, method, options):
 FAMILY = FamilySolver(problem=EnergyOptimalTransfer,
                       methods={"kkt": None, "stm": None, "newton": NewtonOptions}, run=run,
                       default_grid=lambda problem: lgl(DEFAULT_POINTS), check_grid=check_grid,
-                      default_method=default_method)
+                      default_method=default_method, refine=refine_transfer,
+                      refine_method="newton")

@@ -5,6 +5,8 @@ default grid, and the compiled solver that turns (problem, grid, method, options
 from dataclasses import dataclass
 from typing import Callable
 
+from .._validation import is_concrete
+
 
 @dataclass(frozen=True)
 class FamilySolver:
@@ -17,6 +19,10 @@ class FamilySolver:
     default_grid  problem -> the grid `solve(problem)` uses
     check_grid    (grid, method) -> None, raising ValueError for a grid the method cannot use
     default_method  optional (problem, grid) -> method name
+    refine        optional (problem, options, judge) -> `Solution`: the mesh refinement
+                  `solve(problem)` runs for a concrete problem without a grid, with the
+                  method `refine_method` (`jaxlpm.solvers.refine`)
+    refine_method the method refinement uses
     """
 
     problem: type
@@ -25,9 +31,17 @@ class FamilySolver:
     default_grid: Callable
     check_grid: Callable
     default_method: Callable | None = None
+    refine: Callable | None = None
+    refine_method: str | None = None
 
-    def solve(self, problem, grid, method, options):
-        if grid is None:
+    def solve(self, problem, grid, method, options, judge):
+        """The solution of `problem` with `judge` (INACCURATE where the error estimate
+        exceeds the tolerance) applied."""
+        refining = (grid is None and self.refine is not None and is_concrete(problem)
+                    and method in (None, self.refine_method))
+        if refining:
+            method = self.refine_method
+        elif grid is None:
             grid = self.default_grid(problem)
         if method is None:
             method = (self.default_method(problem, grid) if self.default_method is not None
@@ -45,5 +59,7 @@ class FamilySolver:
                 raise ValueError(f"options for method {method!r} must be a {kind.__name__}, "
                                  f"got {type(options).__name__}")
         problem.check()
+        if refining:
+            return self.refine(problem, options, judge)
         self.check_grid(grid, method)
-        return self.run(problem, grid, method, options)
+        return judge(self.run(problem, grid, method, options))

@@ -33,6 +33,8 @@ from ..dynamics.stm import IP, OP, ya_entries
 from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, small_spd_solve
 from ..orbits import lvlh_to_th, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
+from ..problems.energy_optimal import collocation_accuracy
+from ..problems.scaling import length_scale
 from ..solution import Collocated, Solution
 
 
@@ -87,11 +89,14 @@ def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, s
     u = k2**2 * U_nodes                                          # m/s^2
     cost_f = 0.5 * half * jnp.sum(grid.weights * jnp.sum(u**2, axis=1) / rho**2)
     states, node_costates = _lvlh_nodes(X_nodes, costates, sf, cf, e, k2)
+    length = length_scale(s["prob"])          # the TH states and controls in transfer_ocp's units
     outputs = dict(
         node_states=states, node_controls=u, cost=cost_f / k2, node_costates=node_costates,
         stats=dict(node_f=s["f"], node_states_th=X_nodes, cost_true_anomaly=cost_f,
                    costates_th=costates, multipliers=multipliers, constraint_residual=con_res,
-                   stationarity_residual=stat_res, rcond=rcond))
+                   stationarity_residual=stat_res, rcond=rcond,
+                   **collocation_accuracy(s["prob"], grid, X_nodes / length,
+                                          U_nodes / length)))
     finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(v))
                                 for v in jax.tree_util.tree_leaves(outputs)]))
     valid = s["valid"]

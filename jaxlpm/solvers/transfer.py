@@ -14,6 +14,7 @@ import jax.numpy as jnp
 from ..problems.energy_optimal import (control_scale, lvlh_state, model_state, to_solution,
                                        transfer_ocp)
 from ..nlp.transcription import equality, pack, state_s, state_tau, unpack
+from ..collocation.segments import LGRMesh
 from ..linalg import sequential_when_batched
 from ..status import Status
 from .lq import kkt_law
@@ -67,11 +68,16 @@ LINEAR_ALGEBRA = ("auto", "condensed", "dense")
 
 
 def _condensable(problem, grid):
-    return problem.model != "linear" and all(problem.thrust_axes)
+    """The condensed solve applies to every model with every thrust axis; on the linear model
+    a single grid keeps the dense solve (one Newton step of a QP) and a segmented mesh,
+    whose dense KKT matrix grows with the square of its points, takes the condensed one."""
+    return all(problem.thrust_axes) and (problem.model != "linear"
+                                         or isinstance(grid, LGRMesh))
 
 
 def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
-                    warm_start: bool = True, linear_algebra: str = "auto") -> Solution:
+                    warm_start: bool = True, linear_algebra: str = "auto",
+                    z0=None) -> Solution:
     """Solve `problem` (any model) on `grid` (any scheme) by Newton-KKT.
 
     linear_algebra: how each Newton-KKT system is solved: "dense" (`DenseKKT`, one LU of the
@@ -83,12 +89,15 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     continuation in the separation (`separation_homotopy`, from 1/64 of it to all of it);
     `iterations` then counts every Newton iteration taken. Traced invalid inputs give status
     INVALID_INPUT with zeroed outputs; a failed chief integration (model "j2") gives
-    NONFINITE.
+    NONFINITE. z0: an initial guess in the solver's units (`refine.interpolated_guess`: a
+    coarser solution of the same problem), in place of the warm start.
     """
     valid = problem.validity()
     problem = problem.sanitized(valid)
     ocp, chief, ok = transfer_ocp(problem, grid)
-    if warm_start:       # an initial guess: not differentiated, member by member under vmap
+    if z0 is not None:
+        z0, linear_singular = jax.lax.stop_gradient(z0), jnp.array(False)
+    elif warm_start:       # an initial guess: not differentiated, member by member under vmap
         z0, linear_singular = _sequential_warm_start(*jax.lax.stop_gradient((problem, ocp)),
                                                      grid)
     else:

@@ -1,0 +1,101 @@
+"""Batched mesh refinement of energy-optimal transfers (`jaxlpm.solvers.refine`): every member
+is solved on the ladder's first rung; only the members that come out INACCURATE go on to the
+next rung, each on its own breaks (split where its own error is) and warm-started from its own
+previous solution. A rung's mesh shape is fixed, its breaks an array leaf, so each rung is one
+compiled function whatever the members and breaks (`lax.map` over groups of `width` members).
+"""
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..collocation.segments import LGRMesh, lgr_mesh
+from ..collocation import lgr
+from ..nlp.newton import NewtonOptions
+from ..problems.energy_optimal import scaled_rows
+from ..solution import DEFAULT_TOLERANCE, judge
+from ..solvers.energy_optimal import rung_options
+from ..solvers.refine import DEFAULT_LADDER, interpolated_guess, split_breaks
+from ..solvers.transfer import newton_transfer
+from ..status import Status
+from .sweep import map_in_groups
+
+
+def accuracy_record(solution):
+    """A member's record: status, cost (m^2/s^3), the error estimate (m, m/s, relative),
+    Newton iterations."""
+    st = solution.stats
+    return dict(status=solution.status, cost=solution.cost,
+                error_position=st["error_position"], error_velocity=st["error_velocity"],
+                relative_error=st["relative_error"], iterations=st["iterations"])
+
+
+@functools.lru_cache(maxsize=None)
+def _rung_function(shape, previous, options, tolerance, width, record):
+    """jit(map over members) of one rung: (problems, breaks, carried previous solution) ->
+    (records, carry for the next rung)."""
+    k, n = shape
+
+    def member(args):
+        problem, breaks, prev = args
+        mesh = LGRMesh(breaks, lgr(n))
+        if previous is None:
+            sol = newton_transfer(problem, mesh, options)
+        else:
+            X, U = interpolated_guess(prev["X"], prev["U"],
+                                      LGRMesh(prev["breaks"], lgr(previous[1])), mesh)
+            sol = newton_transfer(problem, mesh, options,
+                                  z0=jnp.concatenate([X.reshape(-1), U.reshape(-1)]))
+        sol = judge(sol, tolerance)
+        X, U = scaled_rows(sol)
+        return record(sol), dict(breaks=breaks, X=X, U=U,
+                                 segment_error=sol.stats["segment_error"])
+
+    return jax.jit(lambda ps, bs, prev: map_in_groups(member, (ps, bs, prev), width))
+
+
+def _take(tree, idx):
+    return jax.tree_util.tree_map(lambda x: x[idx], tree)
+
+
+def refine_batch(problems, *, ladder=DEFAULT_LADDER, tolerance=DEFAULT_TOLERANCE,
+                 options: NewtonOptions = NewtonOptions(), record=accuracy_record,
+                 width: int = 1, log=None) -> dict:
+    """Refine a batch of `EnergyOptimalTransfer`s (leading axis: members) rung by rung (module
+    docstring). record(solution) -> dict of arrays: what is kept of each member's final
+    solution (the default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`).
+    Returns the records as NumPy arrays (members first) plus "rung" (the rung each member
+    ended on) and "segments" (its mesh's segment count)."""
+    n_members = jax.tree_util.tree_leaves(problems)[0].shape[0]
+    todo = np.arange(n_members)
+    out, carry, previous = None, None, None
+    for index, shape in enumerate(ladder.rungs):
+        k, _ = shape
+        if previous is None:
+            breaks = np.tile(np.asarray(lgr_mesh(k, 2).breaks), (todo.size, 1))
+        else:
+            breaks = np.stack([split_breaks(b, e, k) for b, e in
+                               zip(np.asarray(carry["breaks"]), np.asarray(carry["segment_error"]))])
+        fn = _rung_function(shape, previous, rung_options(options, k), tolerance, width, record)
+        recs, new_carry = fn(_take(problems, todo), jnp.asarray(breaks),
+                             carry if carry is not None else jnp.zeros(todo.size))
+        recs = {key: np.asarray(v) for key, v in recs.items()}
+        if out is None:
+            out = {key: np.zeros((n_members,) + v.shape[1:], v.dtype) for key, v in recs.items()}
+            out["rung"] = np.zeros(n_members, np.int32)
+            out["segments"] = np.zeros(n_members, np.int32)
+        for key, v in recs.items():
+            out[key][todo] = v
+        out["rung"][todo], out["segments"][todo] = index, k
+        again = recs["status"] == Status.INACCURATE
+        if log is not None:
+            log(f"rung {index} ({k} x {shape[1]}): {todo.size} members, "
+                f"{int(again.sum())} still INACCURATE")
+        todo = todo[again]
+        if not todo.size:
+            break
+        carry = _take(jax.tree_util.tree_map(np.asarray, new_carry), np.flatnonzero(again))
+        previous = shape
+    return out

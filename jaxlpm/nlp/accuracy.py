@@ -1,0 +1,185 @@
+"""A-posteriori error estimate of a collocated solution between its collocation points (the
+relative-error estimate of GPOPS-II: Patterson, Hager & Rao 2015, "A ph mesh refinement method
+for optimal control", Optim. Control Appl. Meth. 36, §3; Liu, Hager & Rao 2015, "Adaptive mesh
+refinement method for optimal control using nonsmoothness detection and mesh size reduction",
+J. Franklin Inst. 352, §3).
+
+On every segment [b_k, b_{k+1}] of the solution's grid (a single grid is one segment on
+[-1, 1]) take m > n_k Legendre-Gauss-Radau check points tau_kj (tau_k0 = b_k), evaluate the
+solution's state polynomial X(tau) and control interpolant U(tau) there, and integrate the
+state derivative they imply from the segment's start with the m-point integration matrix A
+(A_ij = int_{-1}^{tau_i} l_j) and, to the segment's end, the Radau quadrature:
+
+    Xhat_kj = X(b_k) + h_k sum_l A_jl F(s_kl, X(tau_kl), U(tau_kl)),   j = 1 .. m - 1,
+    Xhat_k,end = X(b_k) + h_k sum_l w_l F(s_kl, X(tau_kl), U(tau_kl))
+
+(h_k the segment's half length in s). E = Xhat - X at those m rows is how far the state
+polynomial is from the flow of its own control within the segment: zero at the collocation
+points of an exact solve, and as small as the grid resolves the solution elsewhere. The
+relative error of a segment is max_{i,j} |E_kji| / (1 + max_j |X_i(tau_kj)|) (Patterson et al.,
+eq. 38), i over the state components in the problem's (nondimensional) units.
+
+`collocation_defects` alone measures each segment from the polynomial's own value at its
+start, so it cannot see how an error made early grows along the transfer (a velocity error
+of a long relative transfer becomes a position error that drifts). `check_flight` therefore
+also flies the solution's control on the check mesh: per segment, from the flight's state at
+the segment's start, the collocation equations of the initial-value problem
+Y_j = Y_0 + h_k sum_l A_jl F(s_kl, Y_l, U(tau_kl)) solved by Newton's method (started from
+the polynomial), then carried to the segment's end by the quadrature. Its largest distance from
+the polynomial, over the check rows, estimates the miss of the solution flown by an
+independent integrator (what `jaxlpm.verify.fly` measures) wherever the check mesh resolves
+the flight: it has twice the solution's points per segment.
+
+The check points get their own per-point data (a chief's ephemeris): the caller builds the
+problem on the check mesh (`check_mesh`) so that `node_data` sits at its points.
+"""
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from ..collocation import Grid
+from ..collocation.segments import LGRMesh, lgr_mesh
+from ..linalg import lu_solve
+from .transcription import support_rows
+
+CHECK_FACTOR = 2       # check points per segment: 2 n_k + 2 (more than the segment's degree)
+
+
+def check_points(n: int) -> int:
+    """Radau check points per segment of n collocation points."""
+    return CHECK_FACTOR * n + 2
+
+
+def check_mesh(grid) -> LGRMesh:
+    """The check mesh of a grid: its segments (one segment [-1, 1] for a `Grid`), each with
+    `check_points(n_k)` Radau points."""
+    if isinstance(grid, LGRMesh):
+        return LGRMesh(breaks=grid.breaks, segment=lgr_mesh(1, check_points(grid.segment.n))
+                       .segment)
+    if not isinstance(grid, Grid):
+        raise ValueError(f"grid must be a Grid or an LGRMesh, got {type(grid).__name__}")
+    return lgr_mesh(1, check_points(grid.n))
+
+
+class Defects(NamedTuple):
+    """The estimate on the check rows (per segment: its m - 1 Radau points after the start,
+    then its end), in the problem's units.
+
+    tau      (K, m) grid coordinate of the check rows
+    s        (K, m) independent variable there
+    errors   (K, m, n_x) Xhat - X
+    states   (K, m, n_x) X, the solution's state polynomial
+    relative (K,) each segment's relative error (module docstring)
+    path     (K m, n_g) path inequality values g at the check points (n_g = 0: none)
+    """
+
+    tau: jax.Array
+    s: jax.Array
+    errors: jax.Array
+    states: jax.Array
+    relative: jax.Array
+    path: jax.Array
+
+
+class _CheckInputs(NamedTuple):
+    X: jax.Array        # (K, m, n_x) the state polynomial at the check points
+    end: jax.Array      # (K, n_x) ... at each segment's end
+    U: jax.Array        # (K, m, n_u) the applied control at the check points
+    s: jax.Array        # (K, m) the independent variable there
+    h: jax.Array        # (K,) the segments' half lengths in s
+    data: object        # node data with leading axes (K, m), or None
+    s0: jax.Array       # the initial s
+    half: jax.Array     # (sf - s0) / 2
+
+
+def _check_inputs(ocp_check, check, grid, X, U, sf, control_map):
+    sf = ocp_check.sf if sf is None else sf
+    s0 = ocp_check.s0
+    k, m, n_x = check.n_segments, check.segment.n, X.shape[-1]
+    support = X[support_rows(grid)]
+    state = jax.vmap(lambda t: grid.interpolate_state(support, t))
+    tau = check.points
+    Uc = jax.vmap(lambda t: grid.interpolate_control(U, t))(tau)
+    if control_map is not None:
+        Uc = jax.vmap(control_map)(Uc)
+    data = (None if ocp_check.node_data is None else jax.tree_util.tree_map(
+        lambda d: d.reshape(k, m, *d.shape[1:]), ocp_check.node_data))
+    return _CheckInputs(state(tau).reshape(k, m, n_x), state(check.breaks[1:]),
+                        Uc.reshape(k, m, -1), (s0 + 0.5 * (sf - s0) * (tau + 1.0)).reshape(k, m),
+                        0.5 * (sf - s0) * 0.5 * jnp.diff(check.breaks), data, s0,
+                        0.5 * (sf - s0))
+
+
+def _rates(ocp, Y, s, U, data):
+    """F at each point of one segment, (m, n_x)."""
+    axis = None if data is None else 0
+    return jax.vmap(lambda y, si, u, d: ocp.dynamics(si, y, u, d, ocp.params),
+                    in_axes=(0, 0, 0, axis))(Y, s, U, data)
+
+
+def collocation_defects(ocp_check, check: LGRMesh, grid, X, U, sf=None,
+                        control_map=None) -> Defects:
+    """The estimate of the module docstring for the solution with state rows X and controls U
+    on `grid` (a `Grid` or `LGRMesh`), the problem `ocp_check` built on the check mesh
+    `check` (`check_mesh(grid)`, so its node data sit at the check points); sf: the final s
+    (a free final s), default ocp_check.sf; control_map: applied to the interpolated control
+    (e.g. its direction, for a constant-magnitude engine), None: as it is."""
+    c = _check_inputs(ocp_check, check, grid, X, U, sf, control_map)
+    F = jax.vmap(lambda *a: _rates(ocp_check, *a), in_axes=(0, 0, 0, 0 if c.data is not None
+                                                             else None))(c.X, c.s, c.U, c.data)
+    seg = check.segment
+    inner = jnp.einsum("ij,kjx->kix", jnp.asarray(seg.integration)[1:], F)
+    end = jnp.einsum("j,kjx->kx", jnp.asarray(seg.weights), F)
+    Xhat = c.X[:, :1] + c.h[:, None, None] * jnp.concatenate([inner, end[:, None]], axis=1)
+    states = jnp.concatenate([c.X[:, 1:], c.end[:, None]], axis=1)
+    errors = Xhat - states
+    scale = 1.0 + jnp.max(jnp.abs(states), axis=1)                          # (K, n_x)
+    relative = jnp.max(jnp.abs(errors) / scale[:, None], axis=(1, 2))
+    if ocp_check.path is None:
+        path = jnp.zeros((c.s.size, 0), X.dtype)
+    else:
+        axis = None if ocp_check.node_data is None else 0
+        path = jax.vmap(ocp_check.path, in_axes=(0, 0, 0, axis, None))(
+            c.s.reshape(-1), c.X.reshape(c.s.size, -1), c.U.reshape(c.s.size, -1),
+            ocp_check.node_data, ocp_check.params).reshape(c.s.size, -1)
+    tau = check.points.reshape(c.s.shape)
+    tau_rows = jnp.concatenate([tau[:, 1:], check.breaks[1:, None]], axis=1)
+    s_rows = c.s0 + c.half * (tau_rows + 1.0)
+    return Defects(tau_rows, s_rows, errors, states, relative, path)
+
+
+FLIGHT_NEWTON_STEPS = 4   # the polynomial is the Newton start: the flight's IVP is nearly linear
+
+
+def check_flight(ocp_check, check: LGRMesh, grid, X, U, sf=None, control_map=None):
+    """The flight of the solution's control on the check mesh (module docstring): its states
+    (K, m, n_x) on the check rows of `collocation_defects` (the m - 1 Radau points after each
+    segment's start, then its end), in the problem's units, from the solution's initial state
+    X[0]. Newton's method per segment (`FLIGHT_NEWTON_STEPS` steps on the m n_x collocation
+    equations, dense LU)."""
+    c = _check_inputs(ocp_check, check, grid, X, U, sf, control_map)
+    m, n_x = check.segment.n, X.shape[-1]
+    A = jnp.asarray(check.segment.integration)
+    w = jnp.asarray(check.segment.weights)
+    eye = jnp.eye(m * n_x, dtype=X.dtype)
+
+    def segment(y0, inputs):
+        guess, s_k, U_k, d_k, h_k = inputs
+        f = lambda Y: _rates(ocp_check, Y, s_k, U_k, d_k)                    # noqa: E731
+
+        def newton(_, Y):
+            F, J = f(Y), jax.vmap(jax.jacfwd(
+                lambda y, si, u, d: ocp_check.dynamics(si, y, u, d, ocp_check.params)),
+                in_axes=(0, 0, 0, None if d_k is None else 0))(Y, s_k, U_k, d_k)
+            R = Y - y0 - h_k * (A @ F)
+            big = eye - h_k * (A[:, :, None, None] * J[None]).transpose(0, 2, 1, 3).reshape(
+                m * n_x, m * n_x)
+            return Y - lu_solve(big, R.reshape(-1)).reshape(m, n_x)
+
+        Y = jax.lax.fori_loop(0, FLIGHT_NEWTON_STEPS, newton, guess - guess[0] + y0)
+        end = y0 + h_k * (w @ f(Y))
+        return end, jnp.concatenate([Y[1:], end[None]])
+
+    return jax.lax.scan(segment, c.X[0, 0], (c.X, c.s, c.U, c.data, c.h))[1]

@@ -1,0 +1,86 @@
+"""How accurate a solution is between its nodes, in SI, and the status that says so.
+
+Every collocated family estimates, inside its compiled solver, how far its state polynomial is
+from the flow of its own control (`jaxlpm.nlp.accuracy`, the GPOPS-II estimate) and reports it
+in `Solution.stats` (`accuracy_stats`):
+
+  error_position  (m)    the largest distance between the state polynomial and the flight of
+                         its own control on the check mesh (`jaxlpm.nlp.accuracy.check_flight`),
+                         over the check rows: an estimate of `verify.fly`'s plan_error, and so
+                         a bound on the flown terminal miss (the polynomial ends on the target)
+  error_velocity  (m/s)  the same for the velocity
+  relative_error  (-)    the largest relative error of a segment (nondimensional states,
+                         Patterson, Hager & Rao 2015 eq. 38)
+  segment_error   (K,)   each segment's relative error (one for a single grid)
+  path_violation  (the path constraint's unit) the largest g > 0 between the nodes (0: none)
+
+`Tolerance` is what `jaxlpm.solve` accepts: a converged solution whose estimate exceeds it is
+`Status.INACCURATE` (`judge`). The default (0.1 m, 1e-4 m/s) is a tenth of the goal that a
+default solve's flown terminal miss stay within 1 m and 1 mm/s: the flown miss was at most
+1.7x the estimate over e in [0, 0.7], 1-5 revolutions and grids from lgl(17) to 16 x 16 LGR
+segments (tests/test_accuracy.py asserts 3x; experiments/robustness_newton.py --refine
+flies every member of the robustness dispersion).
+"""
+
+from dataclasses import dataclass
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..status import Status
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """The accuracy a solution must reach to be SUCCESS (SI): the largest position error
+    (m) and velocity error (m/s) of the state polynomial against the flow of its own control
+    between the nodes (`stats["error_position"]`, `stats["error_velocity"]`), and the largest
+    path-constraint violation between the nodes (`stats["path_violation"]`, in the family's
+    path unit; ignored by families without path constraints)."""
+
+    position: float = 0.1
+    velocity: float = 1e-4
+    path: float = 1e-6
+
+    def __post_init__(self):
+        for name in ("position", "velocity", "path"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not np.isfinite(value) or value <= 0.0:
+                raise ValueError(f"Tolerance.{name} must be a positive finite number, got "
+                                 f"{value!r}")
+
+
+DEFAULT_TOLERANCE = Tolerance()
+
+
+def accuracy_stats(errors_si, relative, path=None):
+    """The stats of the module docstring from the SI errors (..., 6) at the check rows
+    (position m then velocity m/s), the segments' relative errors (K,) and the path values g
+    at the check points (any shape; None: no path constraints)."""
+    flat = errors_si.reshape(-1, errors_si.shape[-1])
+    violation = (jnp.zeros((), flat.dtype) if path is None or path.size == 0
+                 else jnp.maximum(jnp.max(path), 0.0))
+    return dict(error_position=jnp.max(jnp.linalg.norm(flat[:, :3], axis=-1)),
+                error_velocity=jnp.max(jnp.linalg.norm(flat[:, 3:6], axis=-1)),
+                relative_error=jnp.max(relative), segment_error=relative,
+                path_violation=violation)
+
+
+def inaccurate(stats, tolerance: Tolerance):
+    """True where the estimate in `stats` exceeds `tolerance` (or is not finite)."""
+    checks = [stats["error_position"] <= tolerance.position,
+              stats["error_velocity"] <= tolerance.velocity,
+              stats["path_violation"] <= tolerance.path]
+    return ~(checks[0] & checks[1] & checks[2])
+
+
+def judge(solution, tolerance: Tolerance):
+    """The solution with SUCCESS turned into INACCURATE where its estimate exceeds
+    `tolerance` (works under jit and vmap; a family without the estimate is returned as it
+    is)."""
+    if "error_position" not in solution.stats:
+        return solution
+    status = jnp.where((solution.status == Status.SUCCESS)
+                       & inaccurate(solution.stats, tolerance),
+                       Status.INACCURATE, solution.status).astype(jnp.int32)
+    return solution.replace(status=status)

@@ -1,0 +1,105 @@
+"""Adaptive hp mesh refinement: solve on a ladder of `LGRMesh` shapes until the error estimate
+meets the tolerance (Patterson, Hager & Rao 2015; Darby, Hager & Rao 2011).
+
+A `MeshLadder` is a fixed sequence of mesh shapes (segments K, Radau points per segment n):
+each rung compiles once, whatever its breaks (they are an array leaf of the mesh), so a batch
+of problems refines rung by rung with one compiled function per rung (`jaxlpm.batch`). From one
+rung to the next:
+  h (split)   the next rung's K' segments are shared out over the current segments in
+              proportion to each one's relative error (`stats["segment_error"]`, Patterson et
+              al. eq. 38) to the power `SPLIT_EXPONENT` (largest remainder, at least one
+              each), and every current segment is cut evenly into its share: the segments
+              that resolve the solution keep one piece, the others are split where the error
+              is;
+  p (degree)  a rung may raise n (the default ladder's last rung doubles it).
+Each rung is warm-started from the previous solution, its state polynomial and control
+interpolated onto the new mesh (`interpolated_guess`). Refinement stops at the first rung whose
+solution is not INACCURATE (SUCCESS, or a failure of the solver that a finer mesh does not
+cure); at the last rung an INACCURATE solution stays INACCURATE.
+"""
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..collocation.segments import LGRMesh, lgr_mesh
+from ..status import Status
+
+SPLIT_EXPONENT = 0.25    # a segment 10^4 times less accurate than another gets 10x the pieces
+STOP = (Status.SUCCESS, Status.INVALID_INPUT, Status.SINGULAR)   # a finer mesh changes nothing
+
+
+@dataclass(frozen=True)
+class MeshLadder:
+    """The mesh shapes of refinement, coarsest first: ((K, n), ...) segments and Radau points
+    per segment. The default goes from 4 x 16 = 64 points (Mei 2010's N = 64 resolves a
+    near-circular revolution) to 32 x 16 = 512 (the Newton-KKT solve's dense Lagrangian
+    Hessian grows with the square of the points: 0.3 GiB at 512)."""
+
+    rungs: tuple = ((4, 16), (8, 16), (16, 16), (32, 16))
+
+    def __post_init__(self):
+        rungs = tuple(tuple(r) for r in self.rungs)
+        if not rungs or any(len(r) != 2 or not all(isinstance(v, (int, np.integer)) and v >= 1
+                                                   for v in r) for r in rungs):
+            raise ValueError(f"rungs must be (segments, points per segment) pairs of positive "
+                             f"integers, got {self.rungs!r}")
+        object.__setattr__(self, "rungs", rungs)
+
+
+DEFAULT_LADDER = MeshLadder()
+
+
+def split_breaks(breaks, segment_error, k_new: int) -> np.ndarray:
+    """k_new + 1 breaks (host, NumPy) that cut the segments [breaks_i, breaks_i+1] into pieces
+    in proportion to segment_error^SPLIT_EXPONENT (module docstring)."""
+    b = np.asarray(breaks, np.float64)
+    err = np.asarray(segment_error, np.float64)
+    k = b.size - 1
+    if k_new < k:
+        return np.linspace(b[0], b[-1], k_new + 1)
+    weight = np.where(np.isfinite(err), np.maximum(err, 1e-300), 1e300) ** SPLIT_EXPONENT
+    share = (k_new - k) * weight / weight.sum()
+    counts = 1 + np.floor(share).astype(int)
+    extra = k_new - counts.sum()
+    counts[np.argsort(-(share - np.floor(share)))[:extra]] += 1
+    pieces = [np.linspace(lo, hi, c + 1)[:-1] for lo, hi, c in zip(b[:-1], b[1:], counts)]
+    return np.concatenate(pieces + [b[-1:]])
+
+
+def next_mesh(rung, previous=None) -> LGRMesh:
+    """The mesh of `rung` (K, n): uniform for the first, else the previous solution's breaks
+    split by its segment errors (`split_breaks`)."""
+    k, n = rung
+    if previous is None or not isinstance(previous.grid, LGRMesh):
+        return lgr_mesh(k, n)
+    return lgr_mesh(k, n, split_breaks(previous.grid.breaks, previous.stats["segment_error"], k))
+
+
+def interpolated_guess(rows, controls, grid, mesh):
+    """(state rows (n_rows', n_x), controls (n', n_u)) on `mesh` from the state rows and
+    controls of a solution on `grid` (same tau in [-1, 1]): its state polynomial at the mesh's
+    state rows, its control interpolant at the mesh's points."""
+    support = rows[: grid.support.shape[0]]          # LG: the last row is not on it
+    X = jax.vmap(lambda t: grid.interpolate_state(support, t))(mesh.support)
+    U = jax.vmap(lambda t: grid.interpolate_control(controls, t))(mesh.points)
+    return X, U
+
+
+def refine(solve_on, guess, ladder: MeshLadder, judge):
+    """Run the ladder (module docstring) for one concrete problem: solve_on(mesh, z0) -> a
+    `Solution` (z0 None on the first rung), guess(solution, mesh) -> z0 for the next mesh,
+    judge(solution) -> the solution with INACCURATE set. Returns the last solution, with
+    stats["rung"] the index of the rung it was solved on."""
+    solution = None
+    for index, rung in enumerate(ladder.rungs):
+        mesh = next_mesh(rung, solution)
+        usable = solution is not None and int(solution.status) == Status.INACCURATE
+        z0 = guess(solution, mesh) if usable else None
+        solution = judge(solve_on(mesh, z0))
+        solution = solution.replace(stats={**solution.stats, "rung": jnp.int32(index)})
+        if Status(int(solution.status)) in STOP:
+            break
+    return solution
