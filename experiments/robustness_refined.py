@@ -15,7 +15,10 @@ the fixed grid lgl(65) (the robustness run's grid) for the time ratio, and flown
     python experiments/robustness_refined.py --n 200 --model j2 --baseline
 
 Summary (printed and OUT/summary.json): statuses, the SUCCESS fraction, the largest flown miss
-of the SUCCESS members, the table by e and revolutions, wall time against the baseline.
+of the SUCCESS members, the table by e and revolutions, wall time against the baseline (with
+compiles and flights: every rung's members are flown, so a member refined three times flies
+three times); --timing N adds the solve-only steady-state time of both on the first N
+problems.
 """
 
 import argparse
@@ -45,11 +48,31 @@ def flown_record(solution):
                 plan_error=flight.plan_error, flight_status=flight.status)
 
 
-@jax.jit
-def _baseline(problems):
-    def one(p):
-        return flown_record(lpm.solve(p, lpm.lgl(65), method="newton", throw=False))
-    return map_in_groups(one, problems, 1)
+def _baseline_of(record):
+    @jax.jit
+    def baseline(problems):
+        def one(p):
+            return record(lpm.solve(p, lpm.lgl(65), method="newton", throw=False))
+        return map_in_groups(one, problems, 1)
+    return baseline
+
+
+_baseline = _baseline_of(flown_record)
+
+
+def steady_timing(problems):
+    """Solve-only wall time (no flights; compiled functions warmed up by a first pass):
+    refinement against the fixed lgl(65) grid on the same problems."""
+    base = _baseline_of(accuracy_record)
+    out = {}
+    for name, run in (("refined_s", lambda: refine_batch(problems)),
+                      ("baseline_s", lambda: jax.block_until_ready(base(problems)))):
+        run()
+        t = time.perf_counter()
+        run()
+        out[name] = time.perf_counter() - t
+    out["ratio"] = out["refined_s"] / out["baseline_s"]
+    return out
 
 
 def table(rec, params):
@@ -76,6 +99,9 @@ def main(argv=None):
     ap.add_argument("--model", default="two-body", choices=("linear", "two-body", "j2"))
     ap.add_argument("--baseline", action="store_true", help="also solve on fixed lgl(65)")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--timing", type=int, default=0,
+                    help="also time the solves alone (no flights, steady state) on the first "
+                         "TIMING problems")
     args = ap.parse_args(argv)
     out = args.out or ROOT / "results" / f"robustness_refined_{args.model}_n{args.n}_s{args.seed}"
     out.mkdir(parents=True, exist_ok=True)
@@ -122,6 +148,10 @@ def main(argv=None):
         rungs={int(r): int((rec["rung"] == r).sum()) for r in np.unique(rec["rung"])},
         by_e_and_revolutions=table(rec, p), timing_s=timing,
         time_ratio=(timing["refined_s"] / timing["baseline_s"] if timing["baseline_s"] else None))
+    if args.timing:
+        summary["steady_timing"] = dict(
+            n=args.timing, **steady_timing(jax.tree_util.tree_map(
+                lambda x: x[:args.timing], problems)))
     if "baseline_status" in files[0].files:
         b_status = np.concatenate([f["baseline_status"] for f in files])
         b_miss = np.concatenate([f["baseline_miss"] for f in files])

@@ -45,7 +45,7 @@ def _release_compiled_programs():
 # each on the 2-core VM), handed to the parallel workers first, so that the workers finish
 # together instead of one running a long file alone at the end (longest first).
 SLOW_FILES_FIRST = ("test_verify.py", "test_newton.py", "test_api.py", "test_tan2011.py",
-                    "test_properties.py")
+                    "test_properties.py", "test_accuracy.py")
 
 
 def pytest_collection_modifyitems(items):

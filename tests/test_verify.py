@@ -95,7 +95,7 @@ def test_diffrax_against_scipy_with_control(propagators):
 
 def test_time_of_interpolant_nodes():
     """The interpolant evaluates the nodal controls at the node true anomalies (padding inert)."""
-    sol = solve(mei2010.problem(), lgl(17), method="stm")
+    sol = solve(mei2010.problem(), lgl(17), method="stm", throw=False)
     ci = sol.trajectory.flight_control()
     vals = jax.vmap(ci)(sol.stats["node_f"])
     np.testing.assert_allclose(vals, sol.node_controls, rtol=1e-12, atol=1e-18)
@@ -196,7 +196,12 @@ def test_reproduce_mei2010(tmp_path):
     # millimetres, which the N = 64 discretisation error sets.
     for key in ("nonlinear_transfer", "nonlinear_j2_transfer"):
         t = c[key]
-        assert t["status"] == "SUCCESS" and 1 <= t["iterations"] <= 10
+        # converged; INACCURATE at 65 points by the default tolerance (issue 19: the
+        # polynomial strays ~0.1 m from its own flight between the nodes while its end lands
+        # within millimetres), which the estimate in the same row says
+        assert t["status"] in ("SUCCESS", "INACCURATE") and 1 <= t["iterations"] <= 10
+        assert (t["status"] == "SUCCESS") == (t["error_estimate"][0] <= 0.1
+                                              and t["error_estimate"][1] <= 1e-4)
         assert t["terminal_error_nonlinear"][0] < 0.1 and t["terminal_error_nonlinear"][1] < 1e-4
     # the nonlinear optimum differs from the linear one by the linearisation's O(|x|/r) ~ 1e-3
     assert 1e-4 < abs(c["nonlinear_transfer"]["J"] / c["J_kkt"] - 1.0) < 0.05

@@ -144,11 +144,13 @@ def _solve(scheme, k, log):
            "path_residual": float(st["path_residual"]),
            "constraint_residual": float(st["constraint_residual"]),
            "stationarity_residual": float(st["stationarity_residual"]),
-           "propagation_ok": bool(flight.success)}
+           "propagation_ok": bool(flight.success),
+           "error_estimate": [float(st["error_position"]), float(st["error_velocity"])]}
+    est = row["error_estimate"]
     log(f"{scheme:>4} K = {k:>3}: t_f = {row['tf']:.6f} s, {row['status']}, "
         f"{row['outer_iterations']} outer / {row['inner_iterations']} Newton iterations, miss "
-        f"{miss[0]:.2e} m / {miss[1]:.2e} m/s (first call {first:.1f} s incl. compile, "
-        f"then {steady:.2f} s)")
+        f"{miss[0]:.2e} m / {miss[1]:.2e} m/s, estimate {est[0]:.2e} m / {est[1]:.2e} m/s "
+        f"(first call {first:.1f} s incl. compile, then {steady:.2f} s)")
     return sol, (ts, xs), row
 
 
@@ -166,7 +168,7 @@ def compute(log=print):
             main = sol, flown, row
     schemes = [main[2]] + [_solve(s, K, log)[2] for s in OTHER_SCHEMES]
     sol, (ts, xs), row = main
-    if row["status"] != "SUCCESS":
+    if row["status"] not in ("SUCCESS", "INACCURATE"):
         raise RuntimeError(f"the K = {K} LG solve did not converge: {row['status']}")
     xf_flown = np.asarray(xs[-1])
     t = time.perf_counter()
@@ -243,6 +245,10 @@ NOTES = [
     "linear) at K = 100 (experiments/duan_interpolation.py); the exact optimum has none. The "
     "paper's -6.3e-5 m/s is below that spread and cannot be traced without its spline and "
     "its nodal solution.",
+    "Every grid here converges, but none resolves that turn to the library's default "
+    "tolerance (0.1 m, 1e-4 m/s between the nodes): each row is INACCURATE, with its error "
+    "estimate beside the flown miss (issue 19). The paper's K = 100 LG solution flies about a "
+    "metre and millimetres per second wide of its target.",
 ]
 
 

@@ -4,8 +4,9 @@ for optimal control", Optim. Control Appl. Meth. 36, §3; Liu, Hager & Rao 2015,
 refinement method for optimal control using nonsmoothness detection and mesh size reduction",
 J. Franklin Inst. 352, §3).
 
-On every segment [b_k, b_{k+1}] of the solution's grid (a single grid is one segment on
-[-1, 1]) take m > n_k Legendre-Gauss-Radau check points tau_kj (tau_k0 = b_k), evaluate the
+On every piece [b_k, b_{k+1}] of the check mesh (`check_mesh`: each segment of the solution's
+grid, a single grid being one segment on [-1, 1], cut into pieces of about 5 collocation
+points) take m = 12 Legendre-Gauss-Radau check points tau_kj (tau_k0 = b_k), evaluate the
 solution's state polynomial X(tau) and control interpolant U(tau) there, and integrate the
 state derivative they imply from the segment's start with the m-point integration matrix A
 (A_ij = int_{-1}^{tau_i} l_j) and, to the segment's end, the Radau quadrature:
@@ -28,7 +29,7 @@ Y_j = Y_0 + h_k sum_l A_jl F(s_kl, Y_l, U(tau_kl)) solved by Newton's method (st
 the polynomial), then carried to the segment's end by the quadrature. Its largest distance from
 the polynomial, over the check rows, estimates the miss of the solution flown by an
 independent integrator (what `jaxlpm.verify.fly` measures) wherever the check mesh resolves
-the flight: it has twice the solution's points per segment.
+the flight: it has 2.4 check points per collocation point.
 
 The check points get their own per-point data (a chief's ephemeris): the caller builds the
 problem on the check mesh (`check_mesh`) so that `node_data` sits at its points.
@@ -41,26 +42,37 @@ import jax.numpy as jnp
 
 from ..collocation import Grid
 from ..collocation.segments import LGRMesh, lgr_mesh
-from ..linalg import lu_solve
+from ..linalg import dense_solve
 from .transcription import support_rows
 
-CHECK_FACTOR = 2       # check points per segment: 2 n_k + 2 (more than the segment's degree)
+POINTS_PER_PIECE = 5   # a check piece spans about this many of a segment's collocation points
+CHECK_POINTS = 12      # Radau check points per piece: 2.4 per collocation point
 
 
-def check_points(n: int) -> int:
-    """Radau check points per segment of n collocation points."""
-    return CHECK_FACTOR * n + 2
+def check_pieces(n: int) -> int:
+    """Check pieces per segment of n collocation points (ceil(n / POINTS_PER_PIECE))."""
+    return max(1, -(-n // POINTS_PER_PIECE))
+
+
+def _segments(grid):
+    """(breaks, points per segment) of a `Grid` (one segment [-1, 1]) or an `LGRMesh`."""
+    if isinstance(grid, LGRMesh):
+        return grid.breaks, grid.segment.n
+    if not isinstance(grid, Grid):
+        raise ValueError(f"grid must be a Grid or an LGRMesh, got {type(grid).__name__}")
+    return jnp.array([-1.0, 1.0]), grid.n
 
 
 def check_mesh(grid) -> LGRMesh:
-    """The check mesh of a grid: its segments (one segment [-1, 1] for a `Grid`), each with
-    `check_points(n_k)` Radau points."""
-    if isinstance(grid, LGRMesh):
-        return LGRMesh(breaks=grid.breaks, segment=lgr_mesh(1, check_points(grid.segment.n))
-                       .segment)
-    if not isinstance(grid, Grid):
-        raise ValueError(f"grid must be a Grid or an LGRMesh, got {type(grid).__name__}")
-    return lgr_mesh(1, check_points(grid.n))
+    """The check mesh of a grid: each of its segments (one segment [-1, 1] for a `Grid`) cut
+    into `check_pieces(n_k)` equal pieces of `CHECK_POINTS` Radau points each: more points
+    than the segment has, in small pieces, so that the check flight's Newton systems stay
+    small (12 x n_x unknowns) whatever the grid."""
+    breaks, n = _segments(grid)
+    c = check_pieces(n)
+    cuts = breaks[:-1, None] + jnp.diff(breaks)[:, None] * (jnp.arange(c) / c)[None]
+    return LGRMesh(breaks=jnp.concatenate([cuts.reshape(-1), breaks[-1:]]),
+                   segment=lgr_mesh(1, CHECK_POINTS).segment)
 
 
 class Defects(NamedTuple):
@@ -71,7 +83,7 @@ class Defects(NamedTuple):
     s        (K, m) independent variable there
     errors   (K, m, n_x) Xhat - X
     states   (K, m, n_x) X, the solution's state polynomial
-    relative (K,) each segment's relative error (module docstring)
+    relative (K,) each segment's relative error (module docstring; the largest of its pieces)
     path     (K m, n_g) path inequality values g at the check points (n_g = 0: none)
     """
 
@@ -136,7 +148,8 @@ def collocation_defects(ocp_check, check: LGRMesh, grid, X, U, sf=None,
     states = jnp.concatenate([c.X[:, 1:], c.end[:, None]], axis=1)
     errors = Xhat - states
     scale = 1.0 + jnp.max(jnp.abs(states), axis=1)                          # (K, n_x)
-    relative = jnp.max(jnp.abs(errors) / scale[:, None], axis=(1, 2))
+    pieces = jnp.max(jnp.abs(errors) / scale[:, None], axis=(1, 2))
+    relative = pieces.reshape(-1, check_pieces(_segments(grid)[1])).max(axis=1)
     if ocp_check.path is None:
         path = jnp.zeros((c.s.size, 0), X.dtype)
     else:
@@ -153,12 +166,14 @@ def collocation_defects(ocp_check, check: LGRMesh, grid, X, U, sf=None,
 FLIGHT_NEWTON_STEPS = 4   # the polynomial is the Newton start: the flight's IVP is nearly linear
 
 
-def check_flight(ocp_check, check: LGRMesh, grid, X, U, sf=None, control_map=None):
+def check_flight(ocp_check, check: LGRMesh, grid, X, U, sf=None, control_map=None,
+                 newton_steps: int = FLIGHT_NEWTON_STEPS):
     """The flight of the solution's control on the check mesh (module docstring): its states
     (K, m, n_x) on the check rows of `collocation_defects` (the m - 1 Radau points after each
     segment's start, then its end), in the problem's units, from the solution's initial state
-    X[0]. Newton's method per segment (`FLIGHT_NEWTON_STEPS` steps on the m n_x collocation
-    equations, dense LU)."""
+    X[0]. Newton's method per piece (`newton_steps`: 1 is exact for linear dynamics) on its
+    m n_x collocation equations, by Gaussian elimination in array operations (`dense_solve`:
+    a batch of members vectorises)."""
     c = _check_inputs(ocp_check, check, grid, X, U, sf, control_map)
     m, n_x = check.segment.n, X.shape[-1]
     A = jnp.asarray(check.segment.integration)
@@ -176,9 +191,9 @@ def check_flight(ocp_check, check: LGRMesh, grid, X, U, sf=None, control_map=Non
             R = Y - y0 - h_k * (A @ F)
             big = eye - h_k * (A[:, :, None, None] * J[None]).transpose(0, 2, 1, 3).reshape(
                 m * n_x, m * n_x)
-            return Y - lu_solve(big, R.reshape(-1)).reshape(m, n_x)
+            return Y - dense_solve(big, R.reshape(-1)).reshape(m, n_x)
 
-        Y = jax.lax.fori_loop(0, FLIGHT_NEWTON_STEPS, newton, guess - guess[0] + y0)
+        Y = jax.lax.fori_loop(0, newton_steps, newton, guess - guess[0] + y0)
         end = y0 + h_k * (w @ f(Y))
         return end, jnp.concatenate([Y[1:], end[None]])
 
