@@ -207,11 +207,13 @@ def compute(log=print):
                                   "costate estimates; residual in solver units",
         "tf_indirect_residual": float(shot.residual),
         "tf_convergence": [{"K": r["K"], "tf": r["tf"], "tf_error": r["tf"] - tf_ref,
-                            "terminal_miss": r["terminal_miss"], "status": r["status"]}
+                            "terminal_miss": r["terminal_miss"], "status": r["status"],
+                            "error_estimate": r["error_estimate"]}
                            for r in rows],
         "schemes": [{"scheme": r["scheme"], "K": r["K"], "tf": r["tf"],
                      "tf_error": r["tf"] - tf_ref, "terminal_miss": r["terminal_miss"],
-                     "status": r["status"]} for r in schemes],
+                     "status": r["status"], "error_estimate": r["error_estimate"]}
+                    for r in schemes],
         "flown_final_state_paper": lvlh_to_paper(xf_flown).tolist(),
         "fly_around_drift_after_20_days": float(np.linalg.norm(
             xc[-1, :3] - coast(np.asarray(prob.xf), n, n_save=2)[1][-1, :3])),
@@ -270,10 +272,11 @@ def report(computed, log=print):
         f"{c['terminal_miss'][1]:.3e} m/s; max ||u| - 1| at the LG points "
         f"{c['max_direction_error']:.1e}")
     log(f"\n{'scheme':>6}{'K':>5}{'t_f (s)':>18}{'t_f - t_f*':>12}{'miss (m)':>11}"
-        f"{'miss (m/s)':>12}  status")
+        f"{'miss (m/s)':>12}{'est (m)':>10}{'est (m/s)':>11}  status")
     for r in c["tf_convergence"] + c["schemes"][1:]:
         log(f"{r.get('scheme', SCHEME):>6}{r['K']:>5}{r['tf']:>18.9f}{r['tf_error']:>12.2e}"
-            f"{r['terminal_miss'][0]:>11.2e}{r['terminal_miss'][1]:>12.2e}  {r['status']}")
+            f"{r['terminal_miss'][0]:>11.2e}{r['terminal_miss'][1]:>12.2e}"
+            f"{r['error_estimate'][0]:>10.2e}{r['error_estimate'][1]:>11.2e}  {r['status']}")
     log("")
     for note in NOTES:
         log(f"- {note}")
