@@ -31,7 +31,6 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from jaxlpm.batch import map_in_groups, save_npz_atomic, write_json_atomic  # noqa: E402
@@ -107,7 +106,6 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     problems = dispersion(jax.random.key(args.seed), args.n, model=args.model)
     params = {k: np.asarray(v) for k, v in dispersion_parameters(problems).items()}
-    timing = {"refined_s": 0.0, "baseline_s": 0.0}
     for start in range(0, args.n, args.chunk):
         path = out / f"chunk_{start:05d}.npz"
         if path.exists():
