@@ -440,3 +440,26 @@ def test_duan_frames_and_fly_around_conditions():
     ref = scipy.linalg.expm(np.asarray(hcw_matrix(n)) * ts[-1]) @ drifting
     assert np.all(np.isfinite(xs))
     np.testing.assert_allclose(xs[-1], ref, atol=1e-6)
+
+
+def test_default_solve_refines_to_an_accurate_transfer():
+    """The issue-19 acceptance for this family (at the library's default tolerance, not this
+    module's loose one): 0.05 N lasts 1.2 orbits; 2 LGR segments of 16 points converge but
+    do not resolve it (INACCURATE), `solve(problem)` climbs the mesh ladder to a SUCCESS whose
+    control, flown by an independent integrator, stays within the tolerance of the plan; on
+    both meshes the estimate and the flown distance agree within 3x (the check flight is a
+    collocation of the flown IVP on 2.4 check points per collocation point)."""
+    tol = lpm.DEFAULT_TOLERANCE
+    prob = smooth_problem(thrust=0.05)
+    coarse = lpm.solve(prob, lpm.lgr_mesh(2, 16), tolerance=tol, throw=False)
+    assert int(coarse.status) == Status.INACCURATE, coarse.message
+    refined = lpm.solve(prob, tolerance=tol)          # raises unless SUCCESS
+    assert int(refined.stats["rung"]) >= 1
+    # the finer mesh's minimum time lies within the coarse one's estimated accuracy
+    assert abs(float(refined.duration) - float(coarse.duration)) < 1e-3 * float(coarse.duration)
+    for sol in (coarse, refined):
+        plan = np.asarray(lpm.verify.fly(sol).plan_error)
+        est = np.array([float(sol.stats["error_position"]), float(sol.stats["error_velocity"])])
+        assert np.all(plan <= 3.0 * est) and np.all(est <= 3.0 * plan), (plan, est)
+    plan = np.asarray(lpm.verify.fly(refined).plan_error)
+    assert plan[0] < tol.position and plan[1] < tol.velocity

@@ -33,10 +33,13 @@ from .._validation import Checked, Rule, coerce_sequences
 from ..constants import G0
 from ..dynamics import hcw_flow, hcw_matrix
 from ..linalg import dense_solve
-from ..collocation.segments import SegmentedMesh
+from ..collocation.segments import LGRMesh, SegmentedMesh
+from ..nlp.accuracy import check_flight, check_mesh, collocation_defects
 from ..nlp.homotopy import controls, primers
+from ..nlp.ocp import OptimalControlProblem
 from ..orbits import KeplerOrbit
 from ..solution import Segmented, Solution
+from ..solution.accuracy import accuracy_stats
 from ..status import Status
 from .scaling import length_scale, state_scale
 
@@ -208,6 +211,49 @@ def to_nlp(problem: FuelOptimalTransfer, mesh) -> FuelNLP:
                    d=xf - cond.Phi @ x0, cond=cond, mesh_s=mesh_s, x0=x0, xf=xf, umax=umax)
 
 
+def _hcw(s, x, u, data, p):
+    A, B = hcw_input_matrices()
+    return A @ x + B @ u
+
+
+def _thrust_bound(s, x, u, data, p):
+    return (jnp.linalg.norm(u) - p["umax"])[None]
+
+
+def _no_cost(s, x, u, data, p):
+    return 0.0 * s
+
+
+def _no_boundary(x0, xf, sf, p):
+    return jnp.zeros(0, x0.dtype)
+
+
+def collocation_accuracy(problem: FuelOptimalTransfer, nlp: FuelNLP, X, U):
+    """`jaxlpm.solution.accuracy` stats (SI, LVLH) of the solution with state rows X
+    (K, n + 1, 6) and controls U (K, n, 3) in the solver's units: the GPOPS-II estimate and
+    the check-mesh flight of the control interpolated segment by segment (what `verify.fly`
+    flies), on the mesh seen as one `LGRMesh` in tau = 2 s / s_f - 1. path_violation is the
+    delta-v the engine cannot deliver, int max(|u| - u_max, 0) dt (m/s, the check mesh's
+    quadrature): what clipping the interpolated control to the bound changes the velocity
+    by at most (the interpolant overshoots the bound between the nodes where a segment holds
+    a switch)."""
+    m = nlp.mesh_s
+    K, npts = m.n_segments, m.grid.n
+    sf = m.breaks[-1]
+    grid = LGRMesh(breaks=2.0 * m.breaks / sf - 1.0, segment=m.grid)
+    rows = jnp.concatenate([X[:, :npts].reshape(K * npts, 6), X[-1, -1:]])
+    check = check_mesh(grid)
+    ocp = OptimalControlProblem(n_x=6, n_u=3, dynamics=_hcw, running_cost=_no_cost,
+                                boundary=_no_boundary, s0=jnp.zeros_like(sf), sf=sf,
+                                params={"umax": nlp.umax}, path=_thrust_bound)
+    U = U.reshape(K * npts, 3)
+    d = collocation_defects(ocp, check, grid, rows, U)
+    flown = check_flight(ocp, check, grid, rows, U, newton_steps=1)    # linear: exact
+    excess = jnp.sum(check.weights * jnp.maximum(d.path[:, 0], 0.0)) * 0.5 * sf
+    return accuracy_stats((flown - d.states) * state_scale(problem), d.relative,
+                          excess * length_scale(problem) * problem.orbit.mean_motion)
+
+
 def to_solution(problem: FuelOptimalTransfer, mesh, nlp: FuelNLP, res, valid):
     """The `Solution` (SI, LVLH; `Segmented` on `mesh`) of the homotopy's result `res`: the
     eps-smoothed optimum's controls and states, cost = delta-v int |u| dt (m/s), costates
@@ -219,7 +265,9 @@ def to_solution(problem: FuelOptimalTransfer, mesh, nlp: FuelNLP, res, valid):
     energy_dv m/s, energy_fuel kg, energy_cost 1/2 int |u|^2 dt m^2/s^3), eps,
     multipliers nu and energy_multipliers (solver units), terminal_error and
     energy_terminal_error [m, m/s] of the collocated final state, homotopy_steps,
-    failed_steps, newton_iterations."""
+    failed_steps, newton_iterations; the error estimate (`collocation_accuracy`:
+    error_position m, error_velocity m/s, relative_error, segment_error, path_violation
+    m/s)."""
     def keep(x):
         return jnp.where(valid, x, jnp.zeros_like(x))
 
@@ -260,5 +308,6 @@ def to_solution(problem: FuelOptimalTransfer, mesh, nlp: FuelNLP, res, valid):
                    eps=res.eps, multipliers=keep(res.nu), energy_multipliers=keep(res.nu_energy),
                    terminal_error=keep(err), energy_terminal_error=keep(erre),
                    homotopy_steps=res.steps, failed_steps=res.failed_steps,
-                   newton_iterations=res.newton_iterations),
+                   newton_iterations=res.newton_iterations,
+                   **collocation_accuracy(problem, nlp, X, U)),
         method="homotopy")

@@ -12,7 +12,9 @@ in `Solution.stats` (`accuracy_stats`):
   relative_error  (-)    the largest relative error of a segment (nondimensional states,
                          Patterson, Hager & Rao 2015 eq. 38)
   segment_error   (K,)   each segment's relative error (one for a single grid)
-  path_violation  (the path constraint's unit) the largest g > 0 between the nodes (0: none)
+  path_violation  the largest violation of a path constraint between the nodes, in the
+                  family's unit (0: none); fuel-optimal: the delta-v beyond the thrust
+                  bound, int max(|u| - u_max, 0) dt (m/s)
 
 `Tolerance` is what `jaxlpm.solve` accepts: a converged solution whose estimate exceeds it is
 `Status.INACCURATE` (`judge`). The default (0.1 m, 1e-4 m/s) is a tenth of the goal that a
@@ -36,11 +38,12 @@ class Tolerance:
     (m) and velocity error (m/s) of the state polynomial against the flow of its own control
     between the nodes (`stats["error_position"]`, `stats["error_velocity"]`), and the largest
     path-constraint violation between the nodes (`stats["path_violation"]`, in the family's
-    path unit; ignored by families without path constraints)."""
+    unit: for the fuel-optimal thrust bound the delta-v beyond it, m/s, so the default is
+    the velocity tolerance; ignored by families without path constraints)."""
 
     position: float = 0.1
     velocity: float = 1e-4
-    path: float = 1e-6
+    path: float = 1e-4
 
     def __post_init__(self):
         for name in ("position", "velocity", "path"):
@@ -51,6 +54,7 @@ class Tolerance:
 
 
 DEFAULT_TOLERANCE = Tolerance()
+"""The tolerance `solve` uses when given none: `Tolerance()`, the defaults above."""
 
 
 def accuracy_stats(errors_si, relative, path=None):

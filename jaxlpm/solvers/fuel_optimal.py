@@ -4,7 +4,7 @@ refinement at the switching times (Yue & Duan 2016's pipeline: an energy-optimal
 pseudospectral solution, then the homotopy to the bang-bang fuel optimum).
 
 `jaxlpm.solve(problem, mesh)` (`run`): one mesh (jit; vmap over problems and meshes of one
-shape). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method, shooting on the
+shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy tolerance (`refine_transfer`). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method, shooting on the
 costates with the smoothed switching law, continued in eps from the LGR costates.
 `refine_fuel_optimal(problems, segments, points)`: host-side passes over meshes with a break at
 every switching time of the previous solution (`aligned_breaks`), the first mesh uniform, until
@@ -34,6 +34,7 @@ from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem,
 from ..problems.scaling import length_scale, state_scale
 from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel
 from ..solution import Solution
+from ..status import Status
 from .family import FamilySolver
 
 MIN_POINTS = 3
@@ -91,11 +92,35 @@ def run(problem, mesh, method, options: HomotopyOptions) -> Solution:
     return _compiled(problem, mesh, options)      # traced too: one program, not op by op
 
 
+REFINE_SEGMENTS = (DEFAULT_SEGMENTS, 48, 96)
+ALIGN_PASSES = 3     # passes per segment count: the switches move as the mesh follows them
+
+
+def refine_transfer(problem, options, judge, segments=REFINE_SEGMENTS,
+                    points: int = DEFAULT_POINTS, passes: int = ALIGN_PASSES):
+    """`solve(problem)` without a grid: a uniform mesh of segments[0] LGR segments of `points`
+    points, then, for each count in `segments`, up to `passes` meshes with a break at every
+    switching time of the previous solution (`aligned_breaks`: the solution's switches move
+    with the mesh, so the breaks follow them), until the error estimate meets the tolerance
+    (`judge` leaves it SUCCESS) or the last mesh (then INACCURATE). A solve that fails
+    outright (not converged) ends the refinement with its status. stats gain mesh_passes."""
+    options = HomotopyOptions() if options is None else options
+    T = float(problem.duration)
+    meshes = [None] + [count for count in segments for _ in range(passes)]
+    for k, count in enumerate(meshes):
+        breaks = (uniform_breaks(0.0, 1.0, segments[0]) if count is None
+                  else aligned_breaks(0.0, 1.0, count, switching_times(solution) / T))
+        solution = judge(run(problem, segmented_lgr(breaks, points), "homotopy", options))
+        if int(solution.status) != Status.INACCURATE:
+            break
+    return solution.replace(stats=dict(solution.stats, mesh_passes=k + 1))
+
+
 FAMILY = FamilySolver(
     problem=FuelOptimalTransfer, methods={"homotopy": HomotopyOptions}, run=run,
     default_grid=lambda problem: segmented_lgr(uniform_breaks(0.0, 1.0, DEFAULT_SEGMENTS),
                                                DEFAULT_POINTS),
-    check_grid=check_grid)
+    check_grid=check_grid, refine=refine_transfer, refine_method="homotopy")
 
 
 @jax.tree_util.register_dataclass

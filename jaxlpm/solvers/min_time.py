@@ -35,6 +35,7 @@ import jax
 import jax.numpy as jnp
 
 from ..collocation import Grid, lg
+from ..collocation.segments import LGRMesh
 from ..linalg import cholesky_solve, small_spd_solve
 from ..dynamics import hcw_flow
 from ..problems.min_time import (MinimumTimeTransfer, duration_lower_bound, energy_ocp,
@@ -47,6 +48,7 @@ from ..nlp.condensed import CondensedSecondOrder
 from ..nlp.newton import DenseKKT, newton_step
 from ..solution import Solution
 from .family import FamilySolver
+from .refine import MeshLadder, refine
 
 MIN_POINTS = {"LGL": 4, "LG": 3, "LGR": 3}
 DUAL_ITERATIONS = 30       # Newton on p: quadratic where the primer has no zero at a point, and
@@ -238,21 +240,40 @@ _compiled = jax.jit(_min_time_transfer, static_argnames="options")
 
 
 DEFAULT_POINTS = 32
+LADDER = MeshLadder(((2, 16), (4, 16), (8, 16), (16, 16)))
+"""The meshes `solve(problem)` climbs: from 32 points (the default grid's size) to 256 (the
+augmented Lagrangian's inner KKT systems are dense)."""
 
 
 def check_grid(grid, method):
+    if isinstance(grid, LGRMesh):
+        if grid.segment.n < MIN_POINTS["LGR"]:
+            raise ValueError(f"minimum-time transfers need at least {MIN_POINTS['LGR']} LGR "
+                             f"points per segment, got {grid.segment.n}")
+        return
     if not isinstance(grid, Grid):
-        raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(n), lgr(n): n points), got "
-                         f"{grid!r:.60}")
+        raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(n), lgr(n): n points) or "
+                         f"an LGRMesh (lgr_mesh(k, n)), got {grid!r:.60}")
     if grid.n < MIN_POINTS[grid.scheme]:
         raise ValueError(f"minimum-time transfers need at least {MIN_POINTS[grid.scheme]} "
                          f"{grid.scheme} points, got {grid.n}")
 
 
+def refine_transfer(problem, options, judge, ladder: MeshLadder = LADDER):
+    """`solve(problem)` without a grid: the augmented Lagrangian on the `LADDER` of `LGRMesh`
+    shapes, segments split where the estimate is largest (`jaxlpm.solvers.refine`), until
+    the estimate meets the tolerance. Each rung starts from its own minimum-time guess of
+    the linear system (module docstring), which already carries the duration and the
+    primer directions of the transfer: it needs no warm start from the rung before."""
+    options = ALOptions() if options is None else options
+    return refine(lambda mesh, z0: run(problem, mesh, "augmented-lagrangian", options),
+                  lambda solution, mesh: None, ladder, judge)
+
+
 def run(problem, grid, method, options: ALOptions) -> Solution:
-    """Solve a `MinimumTimeTransfer` on `grid` (LGL, LG or LGR) by the augmented-Lagrangian
-    solver; outputs in SI (LVLH, m, m/s, m/s^2, s). jit-compiled once per grid size (and
-    options); vmap- and grad-able (implicit differentiation at the KKT point). Traced bad
+    """Solve a `MinimumTimeTransfer` on `grid` (LGL, LG, LGR or an `LGRMesh`) by the
+    augmented-Lagrangian solver; outputs in SI (LVLH, m, m/s, m/s^2, s). jit-compiled once
+    per grid size (and options); vmap- and grad-able (implicit differentiation at the KKT point). Traced bad
     input gives status INVALID_INPUT and zeroed outputs.
 
     INFEASIBLE only where infeasibility is shown: t_max below `duration_lower_bound` (then
@@ -269,4 +290,5 @@ def run(problem, grid, method, options: ALOptions) -> Solution:
 
 FAMILY = FamilySolver(problem=MinimumTimeTransfer, methods={"augmented-lagrangian": ALOptions},
                       run=run, default_grid=lambda problem: lg(DEFAULT_POINTS),
-                      check_grid=check_grid)
+                      check_grid=check_grid, refine=refine_transfer,
+                      refine_method="augmented-lagrangian")
