@@ -171,22 +171,34 @@ def check_flight(ocp_check, check: LGRMesh, grid, X, U, sf=None, control_map=Non
     """The flight of the solution's control on the check mesh (module docstring): its states
     (K, m, n_x) on the check rows of `collocation_defects` (the m - 1 Radau points after each
     segment's start, then its end), in the problem's units, from the solution's initial state
-    X[0]. Newton's method per piece (`newton_steps`: 1 is exact for linear dynamics) on its
-    m n_x collocation equations, by Gaussian elimination in array operations (`dense_solve`:
-    a batch of members vectorises)."""
+    X[0] (`piecewise_flight`)."""
     c = _check_inputs(ocp_check, check, grid, X, U, sf, control_map)
-    m, n_x = check.segment.n, X.shape[-1]
-    A = jnp.asarray(check.segment.integration)
-    w = jnp.asarray(check.segment.weights)
+    return piecewise_flight(ocp_check, check.segment, c.X, c.U, c.s, c.h, c.data,
+                            newton_steps)
+
+
+def piecewise_flight(ocp, segment, X, U, s, h, data=None,
+                     newton_steps: int = FLIGHT_NEWTON_STEPS):
+    """Fly the controls U (K, m, n_u) given at the Radau points of `segment` (lgr(m)) on K
+    consecutive pieces of half lengths h (K,) in s (points s (K, m)) from X[0, 0]: per piece,
+    from the flight's state at its start, Newton's method (`newton_steps`, started from the
+    states X (K, m, n_x) the solution has there; 1 is exact for linear dynamics) on the m n_x
+    collocation equations Y_j = Y_0 + h sum_l A_jl F(s_l, Y_l, U_l), by Gaussian elimination
+    in array operations (`dense_solve`: a batch of members vectorises), then the Radau
+    quadrature to its end. Returns the flown states (K, m, n_x) at each piece's points after
+    its start and at its end. data: per-point node data with leading axes (K, m), or None."""
+    m, n_x = segment.n, X.shape[-1]
+    A = jnp.asarray(segment.integration)
+    w = jnp.asarray(segment.weights)
     eye = jnp.eye(m * n_x, dtype=X.dtype)
 
-    def segment(y0, inputs):
+    def piece(y0, inputs):
         guess, s_k, U_k, d_k, h_k = inputs
-        f = lambda Y: _rates(ocp_check, Y, s_k, U_k, d_k)                    # noqa: E731
+        f = lambda Y: _rates(ocp, Y, s_k, U_k, d_k)                          # noqa: E731
 
         def newton(_, Y):
             F, J = f(Y), jax.vmap(jax.jacfwd(
-                lambda y, si, u, d: ocp_check.dynamics(si, y, u, d, ocp_check.params)),
+                lambda y, si, u, d: ocp.dynamics(si, y, u, d, ocp.params)),
                 in_axes=(0, 0, 0, None if d_k is None else 0))(Y, s_k, U_k, d_k)
             R = Y - y0 - h_k * (A @ F)
             big = eye - h_k * (A[:, :, None, None] * J[None]).transpose(0, 2, 1, 3).reshape(
@@ -197,4 +209,4 @@ def check_flight(ocp_check, check: LGRMesh, grid, X, U, sf=None, control_map=Non
         end = y0 + h_k * (w @ f(Y))
         return end, jnp.concatenate([Y[1:], end[None]])
 
-    return jax.lax.scan(segment, c.X[0, 0], (c.X, c.s, c.U, c.data, c.h))[1]
+    return jax.lax.scan(piece, X[0, 0], (X, s, U, data, h))[1]

@@ -45,10 +45,12 @@ terminal "infinite" the cost spent up to T plus 1/2 x(T)^T P x(T), i.e. 1/2 x0^T
 states, controls and costates lambda = P(t) x(t) = dJ*/dx(t) exact at any t; `times` the
 steps + 1 sweep nodes. stats: predicted_cost 1/2 x0^T P(0) x0; P0 (6, 6) P(0) and K0 (3, 6)
 R^-1 B^T P(0) in SI (the stationary CARE's P and K for "infinite"); for "infinite" also
-care_residual, care_iterations and care_rcond (`CareSolution`, nondimensional). Status:
-SUCCESS, INVALID_INPUT (traced bad input), NONFINITE (a sweep step met a singular X), or the
-CARE's failure for "infinite" (NOT_STABILISABLE, NOT_DETECTABLE, ...); outputs are zeroed
-unless SUCCESS.
+care_residual, care_iterations and care_rcond (`CareSolution`, nondimensional); the error
+estimate (`flight_accuracy`: error_position m, error_velocity m/s, relative_error,
+segment_error per step). Status: SUCCESS, INACCURATE (the estimate exceeds the tolerance:
+too few steps for the closed loop), INVALID_INPUT (traced bad input), NONFINITE (a sweep
+step met a singular X), or the CARE's failure for "infinite" (NOT_STABILISABLE,
+NOT_DETECTABLE, ...); outputs are zeroed unless SUCCESS.
 """
 
 from dataclasses import replace
@@ -58,9 +60,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import check_finite, check_shape, is_concrete, require_x64
+from ..collocation import lgr
 from ..dynamics import hcw_matrix
+from ..nlp.accuracy import CHECK_POINTS, piecewise_flight
+from ..nlp.ocp import OptimalControlProblem
 from ..problems.lqr import LQRTransfer
 from ..solution import HamiltonianFlow, Solution, zero_invalid
+from ..solution.accuracy import accuracy_stats
 from ..status import Status
 from .family import FamilySolver
 from .riccati import CareProblem, CareSolution, balancing, care
@@ -192,6 +198,37 @@ def _sweep(n, Q, R, x0, duration, S_T, hard: bool, steps: int):
     return flow, (c / n) * (running + terminal), P0, K0
 
 
+def _hcw_rates(s, x, u, data, params):
+    """x^' = A^ x^ + B^ u^ in the sweep's units (tau = n t)."""
+    return hcw_matrix(jnp.ones((), x.dtype)) @ x + _input_matrix(x.dtype) @ u
+
+
+def flight_accuracy(flow: HamiltonianFlow):
+    """`jaxlpm.solution.accuracy` stats (SI, LVLH) of a sweep: its control u(t), flown on
+    CHECK_POINTS Radau points per step from x0 (`piecewise_flight`: collocation of the IVP,
+    exact for a control of the steps' polynomial accuracy), against its states x(t). The
+    flow within a step is exact, so what this measures is what the sweep's steps lose: the
+    jumps of the costate at the nodes (lambda re-set to P_k x_k), the rounding amplified by
+    exp(h |eig(H)|) a step, and steps too long for the closed loop's fastest mode (the
+    check pieces resolve about one radian of it per point)."""
+    segment = lgr(CHECK_POINTS)
+    m, h = flow.m, flow.step
+    tau = jnp.asarray(segment.points)
+    E = jax.vmap(jax.scipy.linalg.expm)(flow.hamiltonian * (0.5 * h * (tau + 1.0))[:, None,
+                                                                                     None])
+    z = jnp.einsum("gij,kj->kgi", E, flow.nodes[:-1])                     # (steps, m_c, 2m)
+    X, U = z[..., :m], -jnp.einsum("ij,kgj->kgi", flow.gain, z[..., m:])
+    s = h * (jnp.arange(flow.steps)[:, None] + 0.5 * (tau + 1.0))
+    ocp = OptimalControlProblem(n_x=m, n_u=U.shape[-1], dynamics=_hcw_rates)
+    flown = piecewise_flight(ocp, segment, X, U, s, jnp.full(flow.steps, 0.5 * h),
+                             newton_steps=1)
+    states = jnp.concatenate([X[:, 1:], flow.nodes[1:, None, :m]], axis=1)
+    errors = flown - states
+    relative = (jnp.max(jnp.abs(errors), axis=(1, 2))
+                / (1.0 + jnp.max(jnp.abs(states), axis=(1, 2))))
+    return accuracy_stats(errors * flow.state_unit, relative)
+
+
 def _lqr_transfer(problem: LQRTransfer, steps: int) -> Solution:
     valid = problem.validity()
     problem = problem.sanitized(valid)
@@ -207,7 +244,7 @@ def _lqr_transfer(problem: LQRTransfer, steps: int) -> Solution:
                                 problem.terminal == "hard", steps)
     if problem.terminal == "infinite":
         P0, K0 = design.P, design.K                     # P(t) = P: the stationary law
-    stats |= dict(predicted_cost=0.5 * x0 @ P0 @ x0, P0=P0, K0=K0)
+    stats |= dict(predicted_cost=0.5 * x0 @ P0 @ x0, P0=P0, K0=K0, **flight_accuracy(flow))
     finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(v)) for v in
                                 (flow.nodes, cost, stats["predicted_cost"], P0)]))
     status = jnp.select([~valid, status != Status.SUCCESS, ~finite],
