@@ -10,8 +10,9 @@ control:
                 error: millimetres at 4e7 m, over the days of coast of a long-range intercept
                 (tests/test_propagation.py measures it against scipy's DOP853); also the
                 relative flights of `jaxlpm.verify` (200 000 steps for long transfers).
-  EPHEMERIS     Dopri8, 1e-13: the J2 chief sampled for the transcription, and the indirect
-                (shooting) references, one decade tighter than the solutions they check.
+  EPHEMERIS     Dopri8, 1e-13: the J2 chief sampled for the transcription, the indirect
+                (shooting) references, and the impulsive intercept's error estimate (its
+                coasts again), one decade tighter than the solutions they check.
   INDEPENDENT   Tsit5, 1e-13: the inertial truth flight of `jaxlpm.verify`, which shares no
                 integration choice with the solvers' Dopri8.
   VARIATIONAL   Dopri8, 1e-9: second-order variational equations that only shape a
@@ -108,8 +109,10 @@ def _check_propagation(state, duration, mu, j2, r_eq):
             raise ValueError(f"{name} must be positive, got {value}")
 
 
-def propagate(state, duration, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None):
-    """Coast `state` = [r (m), v (m/s)] for `duration` (s, > 0; negative integrates backwards).
+def propagate(state, duration, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None,
+              integrator: Integrator = COAST):
+    """Coast `state` = [r (m), v (m/s)] for `duration` (s, > 0; negative integrates backwards)
+    with the `integrator`'s settings (default COAST).
 
     Returns (final state (6,), ok) or, with `ts` (times in [0, duration], s), (states
     (len(ts), 6), ok); ok is False when the integration failed (`solve_ode`: step limit,
@@ -122,7 +125,7 @@ def propagate(state, duration, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None):
     saveat = diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts)
     ys, status = solve_ode(
         lambda t, y: inertial_rhs(y * scale, jnp.zeros(3), mu, j2, r_eq) / scale,
-        state / scale, 0.0, duration, saveat, COAST)
+        state / scale, 0.0, duration, saveat, integrator)
     ys = ys * scale
     valid = (jnp.isfinite(mu) & (mu > 0.0) & jnp.isfinite(r_eq) & (r_eq > 0.0)
              & jnp.isfinite(j2))            # the checks of `_check_propagation`, traced

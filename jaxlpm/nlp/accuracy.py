@@ -49,6 +49,13 @@ POINTS_PER_PIECE = 5   # a check piece spans about this many of a segment's coll
 CHECK_POINTS = 12      # Radau check points per piece: 2.4 per collocation point
 
 
+def unit_direction(u):
+    """u / |u| (u where |u| = 0): the `control_map` of a constant-magnitude engine, which flies
+    the interpolated direction renormalised to unit length."""
+    norm = jnp.linalg.norm(u)
+    return u / jnp.where(norm > 0.0, norm, 1.0)
+
+
 def check_pieces(n: int) -> int:
     """Check pieces per segment of n collocation points (ceil(n / POINTS_PER_PIECE))."""
     return max(1, -(-n // POINTS_PER_PIECE))

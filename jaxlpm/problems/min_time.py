@@ -37,7 +37,7 @@ from .._validation import Checked, Rule, coerce_sequences
 from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
 from .scaling import length_scale, state_scale
-from ..nlp.accuracy import check_flight, check_mesh, collocation_defects
+from ..nlp.accuracy import check_flight, check_mesh, collocation_defects, unit_direction
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import collocation_s, costates, state_s, unpack
 from ..solution import Collocated, Solution, zero_invalid
@@ -168,19 +168,14 @@ def duration_lower_bound(problem: MinimumTimeTransfer):
     return jnp.linalg.norm(invariants(problem.xf) - invariants(problem.x0)) / problem.acceleration
 
 
-def _direction(u):
-    norm = jnp.linalg.norm(u)
-    return u / jnp.where(norm > 0.0, norm, 1.0)
-
-
 def collocation_accuracy(problem: MinimumTimeTransfer, ocp, grid, X, U, sf):
     """`jaxlpm.solution.accuracy` stats (SI, LVLH) of the solution with scaled state rows X
     and directions U: the GPOPS-II estimate and the check-mesh flight with the engine along
     the renormalised interpolated direction (what the trajectory flies)."""
     check = check_mesh(grid)
-    d = collocation_defects(ocp, check, grid, X, U, sf, _direction)
+    d = collocation_defects(ocp, check, grid, X, U, sf, unit_direction)
     # HCW with the direction fixed along the interpolant: linear, one Newton step
-    flown = check_flight(ocp, check, grid, X, U, sf, _direction, newton_steps=1)
+    flown = check_flight(ocp, check, grid, X, U, sf, unit_direction, newton_steps=1)
     return accuracy_stats((flown - d.states) * state_scale(problem), d.relative)
 
 

@@ -61,8 +61,11 @@ lgl(5)) returns a `Solution` (frame "inertial", trajectory `jaxlpm.solution.Fini
             (0 at the optimum), constraint_residual, path_residual, stationarity_residual (the
             last arc solve's, scaled units), search_iterations (t_s steps), arc_solves
             (augmented-Lagrangian solves), newton_iterations, node_masses (kg),
-            node_directions (unit, inertial), seed_time (s), seed_dv (m/s), seed_status
-  status    SUCCESS; the seed's failure (an impulsive solve that failed: its status);
+            node_directions (unit, inertial), seed_time (s), seed_dv (m/s), seed_status,
+            the error estimate (`arc_accuracy`: error_position m, error_velocity m/s,
+            relative_error, segment_error, path_violation)
+  status    SUCCESS; INACCURATE (converged, the estimate above the tolerance); the seed's
+            failure (an impulsive solve that failed: its status);
             INFEASIBLE (eq. (2)'s burn does not fit between 0 and t_f: the engine is too weak
             for the intercept; or no burn within max_duration reaches r_target);
             MAX_ITERATIONS (the arc solve, the model rebuilds or the t_s search); NONFINITE
@@ -79,12 +82,14 @@ import jax.numpy as jnp
 from ..collocation import Grid, lgl
 from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import VARIATIONAL, propagate, solve_ode
+from ..nlp.accuracy import check_flight, check_mesh, collocation_defects, unit_direction
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
 from ..nlp.newton import DenseKKT, NewtonOptions
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import pack, unpack
 from ..problems.intercept import FiniteBurnIntercept
 from ..solution import FiniteBurn, Solution, zero_invalid
+from ..solution.accuracy import accuracy_stats
 from ..status import Status
 from .family import FamilySolver
 from .impulsive import solve_impulsive
@@ -231,7 +236,7 @@ def _solve_arc(p, grid, t_s, z, lam, max_duration, options, cold):
     zero multipliers the first arc solve's path depended on the seed's last bits: 22 or 60
     Newton iterations, or MAX_ITERATIONS inside the whole program, for seeds 4e-10 m/s apart;
     29 to 34 for each from these). Returns (z, lam, status, dD/dt_s (s/s), miss (m),
-    [residuals], solves, Newton iterations)."""
+    [residuals], solves, Newton iterations, d[r, v](t_f)/d[r, v](t_e) (6, 6) SI)."""
     ocp0, ok_start = _arc_ocp(p, t_s, z[-1], max_duration)
     model, resid, miss, ok = _end_model(z, ocp0, grid)
     first = DenseKKT(ocp0.replace(params=dict(ocp0.params, model=model)), grid, z)
@@ -266,7 +271,24 @@ def _solve_arc(p, grid, t_s, z, lam, max_duration, options, cold):
                        Status.MAX_ITERATIONS, status).astype(jnp.int32)
     # envelope theorem: dD*/dt_s = T lambda_b . dc_b/dt_s (module docstring)
     dc = jnp.concatenate([-_rate(ocp0.params["x_s"], p) / _scales(p), -model["v_f"] / LENGTH])
-    return z, lam, status, p["T"] * jnp.dot(lam[-9:], dc), miss, residuals, k, inner
+    sensitivity = jnp.concatenate([model["A"], model["dv_dx"]])
+    return (z, lam, status, p["T"] * jnp.dot(lam[-9:], dc), miss, residuals, k, inner,
+            sensitivity)
+
+
+def arc_accuracy(ocp, grid, X, U, sf, sensitivity):
+    """`jaxlpm.solution.accuracy` stats (SI, inertial) of the collocated burn: the GPOPS-II
+    estimate and the check-mesh flight of the renormalised direction over the arc (4 Newton
+    steps: the burn's IVP is nonlinear), its error at the burn's end carried to the target
+    by the coast's sensitivity d[r, v](t_f)/d[r, v](t_e) (first order: the coasts themselves
+    are the Dopri8 propagation, verified apart): the largest of the two is the estimate of
+    the flown miss."""
+    check = check_mesh(grid)
+    d = collocation_defects(ocp, check, grid, X, U, sf, unit_direction)
+    flown = check_flight(ocp, check, grid, X, U, sf, unit_direction)
+    errors = ((flown - d.states) * _scales(ocp.params)).reshape(-1, 6)
+    return accuracy_stats(jnp.concatenate([errors, (sensitivity @ errors[-1])[None]]),
+                          d.relative)
 
 
 def n_multipliers(grid) -> int:
@@ -308,32 +330,34 @@ def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions)
                           & (jnp.abs(t_b - t_a) > options.search_tol))
 
     def body(c):
-        k, t_a, g_a, t_b, g_b, z, lam, _, _, _, solves, inner = c
+        k, t_a, g_a, t_b, g_b, z, lam, _, _, _, solves, inner, _ = c
         slope = (g_b - g_a) / jnp.where(t_b != t_a, t_b - t_a, 1.0)
         secant = jnp.where(slope > 0, t_b - g_b / jnp.where(slope > 0, slope, 1.0),
                            t_b - jnp.sign(g_b) * 0.5 * half_width)
         probe = t_b - jnp.sign(g_b) * 1.0                # 1 s downhill of eq. (2)'s start
         t_new = jnp.clip(jnp.select([k == 0, k == 1], [t_s0, probe], secant), lo, hi)
-        z, lam, st, g, miss, res, n_solves, n_inner = _solve_arc(
+        z, lam, st, g, miss, res, n_solves, n_inner, sens = _solve_arc(
             p, grid, t_new, z, lam, problem.max_duration, options, k == 0)
         return (k + 1, t_b, g_b, t_new, g, z, lam, st, miss, res, solves + n_solves,
-                inner + n_inner)
+                inner + n_inner, sens)
 
     zero = jnp.asarray(0.0)
     init = (jnp.asarray(0, jnp.int32), t_s0, zero, t_s0, zero, z0,
             jnp.zeros(n_multipliers(grid)), jnp.asarray(Status.SUCCESS, jnp.int32), zero,
-            jnp.zeros(3), jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32))
+            jnp.zeros(3), jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32),
+            jnp.zeros((6, 6)))
     # no search without a seed that fits (unbatched, the branch is skipped)
-    k, t_a, _, t_s, g, z, lam, status, miss, res, n_solves, inner = jax.lax.cond(
+    k, t_a, _, t_s, g, z, lam, status, miss, res, n_solves, inner, sens = jax.lax.cond(
         search, lambda c: jax.lax.while_loop(cond, body, c), lambda c: c, init)
     status = jnp.where((status == Status.SUCCESS) & (jnp.abs(t_s - t_a) > options.search_tol),
                        Status.MAX_ITERATIONS, status)
     status = jnp.select([~valid, seed_status != Status.SUCCESS, ~fits],
                         [Status.INVALID_INPUT, seed_status, Status.INFEASIBLE],
                         status).astype(jnp.int32)
-    ocp, _ = _arc_ocp(p, t_s, z[-1], problem.max_duration)   # layout for unpack only
+    ocp, _ = _arc_ocp(p, t_s, z[-1], problem.max_duration)
     X, U, sf = unpack(z, ocp, grid)
     duration = T * sf
+    accuracy = arc_accuracy(ocp, grid, X, U, sf, sens)
 
     def keep(x):
         return jnp.where(search & jnp.all(jnp.isfinite(x)), x, jnp.zeros_like(x))
@@ -350,7 +374,8 @@ def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions)
         stationarity_residual=keep(res[2]), search_iterations=k, arc_solves=n_solves,
         newton_iterations=inner, node_masses=trajectory.node_masses,
         node_directions=trajectory.node_directions, seed_time=zero_invalid(valid, t_impulse),
-        seed_dv=zero_invalid(valid, dv_impulse), seed_status=seed_status)
+        seed_dv=zero_invalid(valid, dv_impulse), seed_status=seed_status,
+        **jax.tree_util.tree_map(keep, accuracy))
     return Solution(problem=problem, status=status, cost=stats["burn_duration"],
                     duration=ip.duration, trajectory=trajectory, stats=stats,
                     method="augmented-lagrangian", frame="inertial")
