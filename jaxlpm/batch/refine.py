@@ -32,14 +32,21 @@ def accuracy_record(solution):
                 relative_error=st["relative_error"], iterations=st["iterations"])
 
 
+def gradient_record(gradient) -> dict:
+    """{"dcost_d<leaf>": d cost / d leaf} for every leaf of a problem-shaped gradient
+    (`jax.grad` of the cost): "dcost_dx0" (6,), "dcost_dduration", "dcost_dorbit.e", ... in
+    the cost's SI unit (m^2/s^3) per the leaf's SI unit."""
+    leaves, _ = jax.tree_util.tree_flatten_with_path(gradient)
+    return {"dcost_d" + jax.tree_util.keystr(path).lstrip("."): value for path, value in leaves}
+
+
 @functools.lru_cache(maxsize=None)
-def _rung_function(shape, previous, options, tolerance, width, record):
+def _rung_function(shape, previous, options, tolerance, width, record, gradients):
     """jit(map over members) of one rung: (problems, breaks, carried previous solution) ->
     (records, carry for the next rung)."""
     k, n = shape
 
-    def member(args):
-        problem, breaks, prev = args
+    def solve(problem, breaks, prev):
         mesh = LGRMesh(breaks, lgr(n))
         if previous is None:
             sol = newton_transfer(problem, mesh, options)
@@ -48,10 +55,18 @@ def _rung_function(shape, previous, options, tolerance, width, record):
                                       LGRMesh(prev["breaks"], lgr(previous[1])), mesh)
             sol = newton_transfer(problem, mesh, options,
                                   z0=jnp.concatenate([X.reshape(-1), U.reshape(-1)]))
-        sol = judge(sol, tolerance)
+        return sol.cost, judge(sol, tolerance)
+
+    def member(args):
+        problem, breaks, prev = args
+        if gradients:     # the implicit gradient on this rung's mesh: one adjoint KKT solve
+            (_, sol), grad = jax.value_and_grad(solve, has_aux=True)(problem, breaks, prev)
+            extra = gradient_record(grad)
+        else:
+            sol, extra = solve(problem, breaks, prev)[1], {}
         X, U = scaled_rows(sol)
-        return record(sol), dict(breaks=breaks, X=X, U=U,
-                                 segment_error=sol.stats["segment_error"])
+        return record(sol) | extra, dict(breaks=breaks, X=X, U=U,
+                                         segment_error=sol.stats["segment_error"])
 
     return jax.jit(lambda ps, bs, prev: map_in_groups(member, (ps, bs, prev), width))
 
@@ -62,12 +77,15 @@ def _take(tree, idx):
 
 def refine_batch(problems, *, ladder=DEFAULT_LADDER, tolerance=DEFAULT_TOLERANCE,
                  options: NewtonOptions = NewtonOptions(), record=accuracy_record,
-                 width: int = 1, log=None) -> dict:
+                 gradients: bool = False, width: int = 1, log=None) -> dict:
     """Refine a batch of `EnergyOptimalTransfer`s (leading axis: members) rung by rung (module
     docstring). record(solution) -> dict of arrays: what is kept of each member's final
     solution (the default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`).
-    Returns the records as NumPy arrays (members first) plus "rung" (the rung each member
-    ended on) and "segments" (its mesh's segment count)."""
+    gradients: also the implicit gradient of the cost with respect to every leaf of the
+    problem (`gradient_record`: dcost_dx0, dcost_dxf, dcost_dduration, dcost_dorbit.e, ...),
+    taken on each member's final mesh (its breaks held fixed). Returns the records as NumPy
+    arrays (members first) plus "rung" (the rung each member ended on) and "segments" (its
+    mesh's segment count)."""
     n_members = jax.tree_util.tree_leaves(problems)[0].shape[0]
     todo = np.arange(n_members)
     out, carry, previous = None, None, None
@@ -78,7 +96,8 @@ def refine_batch(problems, *, ladder=DEFAULT_LADDER, tolerance=DEFAULT_TOLERANCE
         else:
             breaks = np.stack([split_breaks(b, e, k) for b, e in
                                zip(np.asarray(carry["breaks"]), np.asarray(carry["segment_error"]))])
-        fn = _rung_function(shape, previous, rung_options(options, k), tolerance, width, record)
+        fn = _rung_function(shape, previous, rung_options(options, k), tolerance, width, record,
+                            gradients)
         recs, new_carry = fn(_take(problems, todo), jnp.asarray(breaks),
                              carry if carry is not None else jnp.zeros(todo.size))
         recs = {key: np.asarray(v) for key, v in recs.items()}
