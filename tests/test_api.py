@@ -38,7 +38,7 @@ def fuel_problem(thrust=0.3):
                                    orbit.period, thrust, 50.0, 1000.0)
 
 
-FUEL_MESH = lpm.segmented_lgr(lpm.uniform_breaks(0.0, 1.0, 16), 6)
+FUEL_MESH = None      # the refinement's own (`case`)
 
 # (problem, grid, method, the flown terminal error allowed [m, m/s]). The transfers are
 # resolved on these grids, so the flown miss is set by the integrator and the interpolant's
@@ -62,18 +62,14 @@ CASES = {
 @pytest.fixture(scope="module", params=list(CASES))
 def case(request):
     problem, grid, method, tol = CASES[request.param]
-    solution = lpm.solve(problem, grid, method=method)
     if request.param == "fuel":
-        # bang-bang: move the mesh's breaks to the switching times until they settle (the
-        # passes of refine_fuel_optimal), so each segment holds one smooth arc
-        switches = np.zeros(0)
-        for _ in range(8):
-            new = lpm.switching_times(solution) / float(solution.duration)
-            if new.shape == switches.shape and np.max(np.abs(new - switches)) < 1e-9:
-                break
-            switches = new
-            grid = lpm.segmented_lgr(lpm.aligned_breaks(0.0, 1.0, 16, switches), 6)
-            solution = lpm.solve(problem, grid)
+        # bang-bang: `solve` without a grid moves the mesh's breaks to the switching times
+        # (and adds segments) until the error estimate meets the tolerance, so each segment
+        # holds one smooth arc
+        solution = lpm.solve(problem, method=method)
+        grid = solution.grid
+    else:
+        solution = lpm.solve(problem, grid, method=method)
     return request.param, problem, grid, method, tol, solution
 
 

@@ -36,6 +36,8 @@ from ..orbits import th_to_lvlh, true_anomaly_from_time
 CLOCKS = ("true-anomaly", "uniform", "tabulated")
 COORDINATES = ("lvlh", "tschauner-hempel")
 PAD_TO = 129          # the flight control's padded size: one compiled propagator up to lgl(129)
+"""The flight control's padded size (points): one compiled propagator serves grids up to
+lgl(129)."""
 _FAR = 10.0           # padded support points sit outside [-1, 1] with zero weight
 _INVERSION_STEPS = 60  # safeguarded Newton on t(tau): bisection alone halves 2^-60
 

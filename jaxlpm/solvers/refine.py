@@ -50,6 +50,7 @@ class MeshLadder:
 
 
 DEFAULT_LADDER = MeshLadder()
+"""The ladder `solve` climbs without a grid: `MeshLadder()`, the default rungs above."""
 
 
 def split_breaks(breaks, segment_error, k_new: int) -> np.ndarray:
