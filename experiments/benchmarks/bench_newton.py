@@ -112,10 +112,10 @@ def take(tree, i):
 
 # ---------------------------------------------------------------- numbers shared with CasADi
 @jax.jit
-def peer_data(problem):
-    """Everything CasADi needs for one problem, evaluated by jaxlpm once: node data, scalings,
-    h, scaled boundary states, our warm start z0, and the SI scalings of cost and control."""
-    grid = lgl(N_POINTS)
+def peer_data(problem, grid):
+    """Everything CasADi needs for one problem on `grid` (an LGL grid or an `LGRMesh`),
+    evaluated by jaxlpm once: node data, scalings, h, scaled boundary states, our warm start
+    z0, and the SI scalings of cost and control."""
     ocp, _, ok = transfer_ocp(problem, grid)
     r, (C, w, wd), q = ocp.node_data
     P = ocp.params
@@ -141,10 +141,12 @@ def _inv_pow_diff(R, r, dR, n):
 def build_ipopt(D, weights, options=IPOPT_OPTIONS):
     """CasADi NLP of the transcription, parameters p = [per node (r_c 3, C row-major 9, w 3,
     w_dot 3, q 1) x n, L, n_mean, mu, h, x0 (6), xf (6)]; built once, solved per problem.
+    D (n, n_rows): the grid's differentiation matrix, square for LGL, (K m, K m + 1) for an
+    LGR mesh (its state rows are the collocation points and the end).
 
-    Decision vector z = [X row-major (n x 6), U row-major (n x 3)], constraints [defects
-    row-major (n x 6), X_0 - x0, X_N - xf]: the same order as jaxlpm's `pack`/`equality`, so
-    z0 and the multipliers carry over unchanged.
+    Decision vector z = [X row-major (n_rows x 6), U row-major (n x 3)], constraints [defects
+    row-major (n x 6), X_0 - x0, X_last - xf]: the same order as jaxlpm's `pack`/`equality`,
+    so z0 and the multipliers carry over unchanged.
 
     Dynamics (jaxlpm.problems.energy_optimal, model "two-body"): x_si = [L rho~, L n rho_dot~],
     u_si = L n^2 u~, rho_ddot = C (a(r_c + C^T rho) - a(r_c)) + u_si - 2 w x rho_dot
@@ -152,10 +154,10 @@ def build_ipopt(D, weights, options=IPOPT_OPTIONS):
     F = q [rho_dot~, rho_ddot / (L n^2)]. (jaxlpm's function also has J2 terms, multiplied by
     j2 = 0 for this model; they are left out here: the same function.)
     """
-    n = D.shape[0]
-    z = ca.SX.sym("z", 9 * n)
-    Xt = ca.reshape(z[:6 * n], 6, n)          # column i = x_i (CasADi reshape is column-major)
-    Ut = ca.reshape(z[6 * n:], 3, n)
+    n, n_rows = D.shape
+    z = ca.SX.sym("z", 6 * n_rows + 3 * n)
+    Xt = ca.reshape(z[:6 * n_rows], 6, n_rows)   # column i = x_i (CasADi reshape: column-major)
+    Ut = ca.reshape(z[6 * n_rows:], 3, n)
     node = ca.SX.sym("node", 19, n)
     glob = ca.SX.sym("glob", 16)
     L, nm, mu, h = glob[0], glob[1], glob[2], glob[3]
@@ -181,7 +183,7 @@ def build_ipopt(D, weights, options=IPOPT_OPTIONS):
         cost = cost + float(weights[i]) * 0.5 * q * ca.sumsqr(u)
     Ft = ca.horzcat(*F_cols)
     defects = ca.mtimes(Xt, ca.DM(D.T)) - h * Ft                       # (6, n) = (D X - hF)^T
-    g = ca.vertcat(ca.vec(defects), Xt[:, 0] - x0, Xt[:, n - 1] - xf)
+    g = ca.vertcat(ca.vec(defects), Xt[:, 0] - x0, Xt[:, n_rows - 1] - xf)
     nlp = dict(x=z, p=ca.vertcat(ca.vec(node), glob), f=h * cost, g=g)
     t0 = time.perf_counter()
     solver = ca.nlpsol("newton_peer", "ipopt", nlp, dict(options))
@@ -204,9 +206,10 @@ def ipopt_solve(solver, d):
 
 # ------------------------------------------------------------------------- KKT residuals etc.
 @jax.jit
-def own_kkt_residuals(problem, z, lam):
-    """max |c| and max |grad_z L| of OUR transcription at (z, lambda) (scaled units)."""
-    grid = lgl(N_POINTS)
+def own_kkt_residuals(problem, z, lam, grid=None):
+    """max |c| and max |grad_z L| of OUR transcription at (z, lambda) (scaled units), on
+    `grid` (default lgl(N_POINTS))."""
+    grid = lgl(N_POINTS) if grid is None else grid
     ocp, _, _ = transfer_ocp(problem, grid)
     r = kkt_residual(jnp.concatenate([z, lam]), ocp, grid)
     n = z.size
@@ -215,8 +218,8 @@ def own_kkt_residuals(problem, z, lam):
 
 def compare(ours_cost, ours_u, ip, d):
     """Cost and control differences between our solution (SI) and IPOPT's (scaled -> SI)."""
-    n = N_POINTS
-    u_ip = ip["z"][6 * n:].reshape(n, 3) * float(d["control_scale"])
+    n = ours_u.shape[0]
+    u_ip = ip["z"][-3 * n:].reshape(n, 3) * float(d["control_scale"])
     cost_ip = ip["f"] * float(d["cost_scale"])
     du = float(np.max(np.abs(u_ip - ours_u)))
     return dict(cost_ours=float(ours_cost), cost_ipopt=cost_ip,
@@ -413,7 +416,7 @@ def main(argv=None):
 
     # 1. single problem: IPOPT ---------------------------------------------------------------
     solver, funcs, build_s, (nv, nc) = build_ipopt(D, W)
-    d = host(peer_data(prob))
+    d = host(peer_data(prob, grid))
     # the two NLPs are the same function: compare at the common starting point
     ocp, _, _ = transfer_ocp(prob, grid)
     f_ca, g_ca = funcs(d["z0"], d["p"])
@@ -505,7 +508,8 @@ def main(argv=None):
     # every batch is a prefix-independent draw, so use the largest one's members)
     B, probs, sols = last
     m = min(args.n_ipopt, B)
-    pdata = host(jax.jit(jax.vmap(peer_data))(take(probs, slice(0, m))))
+    pdata = host(jax.jit(jax.vmap(peer_data, in_axes=(0, None)))(take(probs, slice(0, m)),
+                                                                  grid))
     samples = []
     for i in range(m):
         di = {k: v[i] for k, v in pdata.items()}
