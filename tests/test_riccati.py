@@ -272,13 +272,14 @@ def test_badly_balanced_weights_are_swept():
 
     Issue 19: the error estimate flags those 512 steps INACCURATE (the check flight cannot
     follow a mode of e^11 a step: measured 0.24 m, and `verify.fly` fails outright), and
-    2048 steps (h |eig(H)| ~ 2.8, as `run` advises) are SUCCESS, flown within the tolerance
-    (measured: estimate 4e-5 m, flight 5e-4 m, the integrator's own error on a control
-    that varies 900 times faster than the orbit)."""
+    `solve` without a grid doubles the steps until SUCCESS: 1024 (h |eig(H)| ~ 5.5), flown
+    within the tolerance (at 2048 steps, measured: estimate 4e-5 m, flight 5e-4 m, the
+    integrator's own error on a control that varies 900 times faster than the orbit)."""
     problem = jiang_problem("weight").replace(Q=np.eye(6), R=np.eye(3))
-    sol = lpm.solve(problem, throw=False)
+    sol = lpm.solve(problem, lqr_module.STEPS, throw=False)
     assert int(sol.status) == lpm.Status.INACCURATE, sol.message
-    fine = lpm.solve(problem, 2048)                   # raises unless SUCCESS
+    fine = lpm.solve(problem)                         # raises unless SUCCESS
+    assert fine.stats["steps"] == fine.grid == 2 * lqr_module.STEPS
     flight = lpm.verify.fly(fine)
     tol = lpm.DEFAULT_TOLERANCE
     plan = np.asarray(flight.plan_error)

@@ -277,5 +277,20 @@ def run(problem, grid, method, options) -> Solution:
     return _compiled(problem, steps=int(grid))
 
 
+REFINE_STEPS = (STEPS, 2 * STEPS, 4 * STEPS, 8 * STEPS)
+
+
+def refine_steps(problem, options, judge, steps=REFINE_STEPS):
+    """`solve(problem)` without a grid: the sweep on `steps` (512 up to 4096) until its error
+    estimate meets the tolerance (`flight_accuracy`: the steps must resolve the closed loop's
+    fastest mode); at the last, INACCURATE stays. stats gain "steps"."""
+    for count in steps:
+        solution = judge(run(problem, count, "riccati", options))
+        if int(solution.status) != Status.INACCURATE:
+            break
+    return solution.replace(stats=dict(solution.stats, steps=count))
+
+
 FAMILY = FamilySolver(problem=LQRTransfer, methods={"riccati": None}, run=run,
-                      default_grid=lambda problem: STEPS, check_grid=check_grid)
+                      default_grid=lambda problem: STEPS, check_grid=check_grid,
+                      refine=refine_steps, refine_method="riccati")
