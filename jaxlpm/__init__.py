@@ -11,8 +11,10 @@ A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTr
 `MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`, `ImpulsiveIntercept`,
 `FiniteBurnIntercept`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`: k
 segments; `segmented_lgr`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
-mesh refinement to the `Tolerance`; a solution that converged but misses it is INACCURATE), `verify.fly(solution)`, `batch` (sweeps, Monte Carlo),
-`lambert`, `Status`.
+mesh refinement to the `Tolerance`; a solution that converged but misses it is INACCURATE),
+`verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `io` (save/load, CSV, CCSDS OEM),
+`lambert`, `Status`, `plot` (figures of solutions and studies; matplotlib is imported only
+when a figure is drawn).
 """
 
 from . import _cpu_runtime
@@ -38,7 +40,7 @@ from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # 
 from .solvers.lqr import hcw_lqr  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
 from .status import Status, describe  # noqa: E402
-from . import batch, io, nlp, verify  # noqa: E402
+from . import batch, io, nlp, plot, verify  # noqa: E402
 
 __version__ = "0.2.0"
 """The package version."""
@@ -51,6 +53,6 @@ __all__ = [
     "MinimumTimeTransfer", "NewtonOptions", "OptimalControlProblem", "SegmentedMesh",
     "Solution", "SolveError", "Status", "__version__", "aligned_breaks", "batch", "burn_arcs",
     "care", "constants", "describe", "hcw_lqr", "indirect_fuel_optimal", "io", "lambert", "lg",
-    "lgl", "lgr", "make_grid", "nlp", "primer", "refine_fuel_optimal", "segmented_lgr",
+    "lgl", "lgr", "make_grid", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lgr",
     "solve", "switching_function", "switching_times", "uniform_breaks", "verify",
 ]

@@ -16,7 +16,8 @@ import jaxlpm
 
 ROOT = Path(__file__).resolve().parent.parent
 # the public submodules, each with its page docs/reference/<name>.md
-SUBMODULES = ("batch", "verify", "nlp", "solution", "collocation", "dynamics", "orbits", "io")
+SUBMODULES = ("batch", "verify", "nlp", "solution", "collocation", "dynamics", "orbits", "io",
+              "plot")
 
 
 def test_docs_build_strict(tmp_path):
@@ -32,7 +33,9 @@ def test_docs_build_strict(tmp_path):
     reference = (site / "reference" / "problems" / "index.html").read_text()
     assert 'id="jaxlpm.EnergyOptimalTransfer"' in reference
     assert ":::" not in reference
-    for page in ("getting-started", "concepts", "accuracy", "mei2010"):
+    for page in ("getting-started", "concepts", "accuracy", "mei2010",
+                 "tutorials/eccentric-rendezvous", "tutorials/sensitivity-study",
+                 "tutorials/monte-carlo-j2"):
         assert (site / page / "index.html").is_file(), page
 
     # every public name has its entry: jaxlpm.__all__ and each public submodule's __all__

@@ -1,5 +1,6 @@
-"""The research scripts in examples/ run at small sizes and say what they should (issue 18's
-acceptance: each at most ~40 lines, against the public API only)."""
+"""The tutorials in examples/ run at small sizes, say what they should and write their figures
+(and the rendezvous its OEM) into the folder they are given (issue 20; docs/tutorials/). Each
+stays short (at most 60 non-blank lines with its docstring) and uses the public API only."""
 
 import importlib.util
 from pathlib import Path
@@ -22,31 +23,40 @@ def load(name):
 @pytest.mark.parametrize("name", sorted(p.stem for p in EXAMPLES.glob("*.py")))
 def test_examples_are_short_and_use_the_public_api(name):
     lines = [ln for ln in (EXAMPLES / f"{name}.py").read_text().splitlines() if ln.strip()]
-    assert len(lines) <= 45, f"{name}: {len(lines)} non-blank lines"
+    assert len(lines) <= 60, f"{name}: {len(lines)} non-blank lines"
     assert "jaxlpm." not in " ".join(ln for ln in lines if ln.startswith(("from", "import"))), \
         "examples import only `jaxlpm as lpm`"
 
 
-def test_eccentric_rendezvous(capsys):
+def is_png(path):
+    return path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_eccentric_rendezvous(capsys, tmp_path):
     """33 points over 3 periods at e = 0.3 (not yet resolved: the flown misses are metres to
     km; 65 points give millimetres, docs/newton.md): both plans converge and say they are not
     resolved (INACCURATE), and on the J2 model the J2 plan misses far less than the linear
-    one (the linearisation, not the grid, is what the linear plan lacks)."""
-    plans = load("eccentric_rendezvous").main(points=33)
+    one (the linearisation, not the grid, is what the linear plan lacks). Its figures and the
+    J2 plan's OEM are written."""
+    plans = load("eccentric_rendezvous").main(points=33, out=tmp_path)
     assert all(int(s.status) == lpm.Status.INACCURATE for s in plans.values())
     misses = {k: float(lpm.verify.fly(s, model="j2").terminal_error[0])
               for k, s in plans.items()}
     assert misses["J2 plan"] < 0.1 * misses["linear plan"], misses
     assert "miss on J2" in capsys.readouterr().out
+    assert is_png(tmp_path / "trajectory.png") and is_png(tmp_path / "controls.png")
+    oem = (tmp_path / "deputy_j2.oem").read_text()
+    assert oem.startswith("CCSDS_OEM_VERS") and "REF_FRAME = EME2000" in oem
 
 
-def test_sensitivity_study():
+def test_sensitivity_study(tmp_path):
     """4 x 4 cases on lgl(17): every case converges (SUCCESS, or INACCURATE where 17 points do
     not resolve it); the implicit gradient dJ/de of one case
     matches central differences of the same vmapped study (h = 1e-6: truncation ~1e-12,
     round-off ~1e-10 relative; 1e-5 asserted)."""
     study = load("sensitivity_study")
-    e, rev, J, dJ_de, _, status = study.main(n=4, points=17)
+    e, rev, J, dJ_de, _, status = study.main(n=4, points=17, out=tmp_path)
+    assert is_png(tmp_path / "maps.png")
     assert np.all(np.isin(np.asarray(status), [lpm.Status.SUCCESS, lpm.Status.INACCURATE]))
     k = 5
     h = 1e-6
@@ -62,11 +72,14 @@ def test_sensitivity_study():
     assert float(dJ_de[k]) == pytest.approx(fd, rel=1e-5)
 
 
-def test_monte_carlo_j2():
+def test_monte_carlo_j2(tmp_path):
     """4 dispersed J2 rendezvous on lgl(17), re-planned by Newton-KKT through the sweep
-    engine: every sample converges (SUCCESS, or INACCURATE on so small a grid), and each record obeys Cauchy-Schwarz between its delta-v
-    and its energy cost, dv^2 <= 2 J T (equality only for a constant |u|)."""
-    result = load("monte_carlo_j2").main(n=4, points=17)
+    engine: every sample converges (SUCCESS, or INACCURATE on so small a grid), and each record
+    obeys Cauchy-Schwarz between its delta-v and its energy cost, dv^2 <= 2 J T (equality only
+    for a constant |u|). Its figures and the resumable samples are written."""
+    result = load("monte_carlo_j2").main(n=4, points=17, out=tmp_path)
+    assert is_png(tmp_path / "histograms.png") and is_png(tmp_path / "dispersion.png")
+    assert (tmp_path / "samples-4x17" / "manifest.json").is_file()
     t = result.tables[17]
     assert np.all(np.isin(t["status"], [lpm.Status.SUCCESS, lpm.Status.INACCURATE]))
     assert np.all(t["delta_v"] ** 2 <= 2.0 * t["cost"] * t["duration"])

@@ -1,4 +1,5 @@
-"""Figures shared by the case reproductions (matplotlib, Agg backend, PNG)."""
+"""Figures shared by the case reproductions (matplotlib, Agg backend, PNG); the control
+histories and the convergence plots are drawn by `jaxlpm.plot`."""
 
 import matplotlib
 
@@ -6,6 +7,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .. import plot  # noqa: E402
 
 
 def _save(fig, path):
@@ -16,18 +18,10 @@ def _save(fig, path):
 
 
 def plot_control(solution, path, title):
-    """LVLH control acceleration components and magnitude vs time: interpolant and nodes."""
-    t = np.linspace(0.0, float(solution.duration), 1500)
-    u = np.asarray(solution.controls(t))
+    """LVLH control acceleration components and magnitude vs time: interpolant and nodes
+    (`jaxlpm.plot.controls`)."""
     fig, ax = plt.subplots(figsize=(7, 4))
-    for k, name in enumerate("xyz"):
-        ax.plot(t, u[:, k], label=f"u_{name}")
-    ax.plot(t, np.linalg.norm(u, axis=1), "k", lw=1.5, label="|u|")
-    ax.plot(solution.times, np.linalg.norm(solution.node_controls, axis=1), "k.", ms=4,
-            label="|u| at LGL nodes")
-    ax.set(xlabel="t (s)", ylabel="acceleration (m/s²)", title=title)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    plot.controls(solution, ax=ax, samples=1500, title=title)
     return _save(fig, path)
 
 
@@ -46,21 +40,20 @@ def plot_relative_motion(ts, xs, path, title, time_label="t (s)"):
 
 
 def plot_convergence(rows, path):
-    """Cost and linear-model terminal error against N for both laws."""
-    N = [r["N"] for r in rows]
+    """Cost and linear-model terminal error against N for both laws (`jaxlpm.plot.convergence`:
+    the rows that did not end SUCCESS are marked apart, not joined)."""
+    N = np.array([r["N"] for r in rows])
+    laws = ("stm", "kkt")
+    status = {law.upper(): [r.get(f"status_{law}", "SUCCESS") for r in rows] for law in laws}
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
     ref = rows[-1]["J_kkt"]          # the finest grid is the reference: not plotted against itself
-    for law in ("stm", "kkt"):
-        a1.semilogy(N[:-1], [abs(r[f"J_{law}"] - ref) / ref for r in rows[:-1]], "o-",
-                    label=law.upper())
-        a2.semilogy(N, [r[f"terminal_error_linear_{law}"][0] for r in rows], "o-",
-                    label=law.upper())
-    a1.set(xlabel="N", ylabel=f"|J - J(N={N[-1]})| / J", title="cost convergence")
-    a2.set(xlabel="N", ylabel="terminal position error (m)",
-           title="linear model, interpolated control")
-    for a in (a1, a2):
-        a.legend()
-        a.grid(alpha=0.3, which="both")
+    plot.convergence(N[:-1], {law.upper(): [abs(r[f"J_{law}"] - ref) / ref for r in rows[:-1]]
+                              for law in laws}, {k: v[:-1] for k, v in status.items()}, ax=a1,
+                     xlabel="N", ylabel=f"|J - J(N={N[-1]})| / J", title="cost convergence")
+    plot.convergence(N, {law.upper(): [r[f"terminal_error_linear_{law}"][0] for r in rows]
+                         for law in laws}, status, ax=a2, xlabel="N",
+                     ylabel="terminal position error (m)",
+                     title="linear model, interpolated control")
     return _save(fig, path)
 
 
@@ -130,24 +123,19 @@ def plot_mesh_study(convergence, schemes, path):
     """Minimum time against the number of points (one scheme) and across schemes: |t_f(K) -
     t_f*| against the grid-independent reference (rows' "tf_error"), and the flown terminal
     miss."""
-    ok = [r for r in convergence if r["status"] == "SUCCESS"]
-    failed = [r for r in convergence if r["status"] != "SUCCESS"]
-    K = [r["K"] for r in ok]
+    K = np.array([r["K"] for r in convergence])
+    status = [r["status"] for r in convergence]
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-    a1.semilogy(K, [abs(r["tf_error"]) + 1e-16 for r in ok], "o-",
-                label=f"{convergence[0].get('scheme', 'LG')}")
+    plot.convergence(K, {convergence[0].get("scheme", "LG"): [abs(r["tf_error"]) + 1e-16
+                                                              for r in convergence]},
+                     status, ax=a1, xlabel="K (points)", ylabel="|t_f - t_f*| (s)",
+                     title="minimum time against the shooting optimum t_f*")
     for r in schemes:
         a1.semilogy([r["K"]], [abs(r["tf_error"]) + 1e-16], "s", label=f"{r['scheme']} K = "
                     f"{r['K']}")
-    for r in failed:          # not converged: marked apart and not joined to the converged
-        for a, y in ((a1, abs(r["tf_error"]) + 1e-16), (a2, r["terminal_miss"][0])):
-            a.semilogy([r["K"]], [y], "rx", ms=9, label=f"K = {r['K']}: {r['status']}")
-    a1.set(xlabel="K (points)", ylabel="|t_f - t_f*| (s)",
-           title="minimum time against the shooting optimum t_f*")
-    a2.semilogy(K, [r["terminal_miss"][0] for r in ok], "o-", label="position (m)")
-    a2.semilogy(K, [r["terminal_miss"][1] for r in ok], "s-", label="velocity (m/s)")
-    a2.set(xlabel="K (points)", title="terminal miss of the flown direction (CW)")
-    for a in (a1, a2):
-        a.grid(alpha=0.3, which="both")
-        a.legend(fontsize=8)
+    a1.legend(fontsize=8)
+    plot.convergence(K, {"position (m)": [r["terminal_miss"][0] for r in convergence],
+                         "velocity (m/s)": [r["terminal_miss"][1] for r in convergence]},
+                     status, ax=a2, xlabel="K (points)",
+                     title="terminal miss of the flown direction (CW)")
     return _save(fig, path)
