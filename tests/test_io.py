@@ -469,3 +469,27 @@ def test_oem_bad_input(solved, tmp_path, kwargs, match):
     kwargs = dict(dict(epoch=EPOCH), **kwargs)
     with pytest.raises(ValueError, match=match):
         lpm.io.write_oem(solved("energy-lgl"), tmp_path / "x.oem", **kwargs)
+
+
+def test_problems_carry_an_epoch_that_dates_the_oem(tmp_path):
+    """The epoch is a static field of the chief's orbit (and of an intercept): canonical UTC,
+    kept through a compiled solve, saved and loaded, and the OEM's default epoch; an OEM of
+    a problem without one needs epoch=."""
+    orbit = ORBIT.replace(epoch="2026-03-01T13:00:00+01:00")         # 12:00 UTC
+    assert orbit.epoch == "2026-03-01T12:00:00.000000"
+    sol = lpm.solve(lpm.EnergyOptimalTransfer.from_revolutions(orbit, X0, jnp.zeros(6), 0.5),
+                    lpm.lgl(9), method="kkt", throw=False)
+    assert sol.problem.orbit.epoch == orbit.epoch
+    assert lpm.io.load(lpm.io.save(sol, tmp_path / "s.npz")).problem.orbit.epoch == orbit.epoch
+    times = np.linspace(0.0, float(sol.duration), 5)
+    own = lpm.io.write_oem(sol, tmp_path / "own.oem", times=times).read_text()
+    given = lpm.io.write_oem(sol, tmp_path / "given.oem", EPOCH, times=times).read_text()
+    data = lambda text: [line for line in text.splitlines() if line[:4] == "2026"]  # noqa
+    assert data(own) == data(given) and data(own)[0].startswith("2026-03-01T12:00:00")
+    with pytest.raises(ValueError, match="needs an epoch"):
+        lpm.io.write_oem(sol.replace(problem=sol.problem.replace(orbit=ORBIT)),
+                         tmp_path / "x.oem")
+    with pytest.raises(ValueError, match="ISO 8601"):
+        ORBIT.replace(epoch="1 March 2026")
+    intercept = tan2011.problem(tan2011.recover_elements()[0], revolutions=3, branch="left")
+    assert intercept.replace(epoch=EPOCH).epoch == "2026-03-01T12:00:00.000000"

@@ -1,4 +1,4 @@
-"""`write_oem(solution, path, epoch, ...)`: a CCSDS Orbit Ephemeris Message (OEM 2.0, KVN
+"""`write_oem(solution, path, epoch=None, ...)`: a CCSDS Orbit Ephemeris Message (OEM 2.0, KVN
 text; CCSDS 502.0-B-2, Orbit Data Messages, 2009) of one spacecraft of a solution.
 
 One file holds one spacecraft (the standard's OEM describes a single object; its segments
@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..orbits.epoch import utc_datetime
 from ..status import Status
 from .inertial import SPACECRAFT, inertial_states
 from .sampling import sample_times, single
@@ -32,21 +33,11 @@ INERTIAL_FRAMES = ("EME2000", "GCRF", "ICRF", "MOD", "TEME", "TOD")
 MICROSECONDS = 1e6                  # per second
 
 
-def _utc(epoch) -> datetime:
-    """`epoch` (a datetime, naive meaning UTC, or an ISO 8601 string) as a naive UTC
-    datetime."""
-    if isinstance(epoch, str):
-        try:
-            epoch = datetime.fromisoformat(epoch)
-        except ValueError:
-            raise ValueError(f"epoch must be an ISO 8601 UTC date and time such as "
-                             f"'2026-03-01T12:00:00' (at most 6 decimals of seconds), got "
-                             f"{epoch!r}") from None
-    if not isinstance(epoch, datetime):
-        raise ValueError(f"epoch must be a datetime or an ISO 8601 string, got {epoch!r:.80}")
-    if epoch.tzinfo is not None:
-        epoch = epoch.astimezone(timezone.utc).replace(tzinfo=None)
-    return epoch
+def _problem_epoch(problem):
+    """The epoch a problem carries (`orbit.epoch`, an intercept's `epoch`), or None."""
+    holder = getattr(problem, "intercept", problem)
+    holder = getattr(holder, "orbit", holder)
+    return getattr(holder, "epoch", None)
 
 
 def _name(value, what: str) -> str:
@@ -72,14 +63,15 @@ def _microseconds(solution, times) -> np.ndarray:
     return micro
 
 
-def write_oem(solution, path, epoch, times=None, *, ref_frame: str = "EME2000",
+def write_oem(solution, path, epoch=None, times=None, *, ref_frame: str = "EME2000",
               spacecraft: str = "deputy", object_name: str | None = None,
               object_id: str | None = None, originator: str = "jaxlpm") -> Path:
     """Write the CCSDS OEM of one solution's `spacecraft` ("deputy" or "chief") to `path`
     and return the path (module docstring).
 
     epoch        the UTC date and time of t = 0 (a datetime, naive meaning UTC, or an ISO
-                 8601 string)
+                 8601 string); None: the problem's own (`KeplerOrbit.epoch`, or an
+                 intercept's `epoch`)
     times        s since the start (increasing, >= 1 microsecond apart); default
                  `jaxlpm.io.sampling.sample_times` (201 uniform times)
     ref_frame    the inertial frame the chief's elements are given in, one of
@@ -90,7 +82,11 @@ def write_oem(solution, path, epoch, times=None, *, ref_frame: str = "EME2000",
     no chief); RuntimeError if the J2 chief's integration fails.
     """
     single(solution, "write_oem")
-    start = _utc(epoch)
+    epoch = _problem_epoch(solution.problem) if epoch is None else epoch
+    if epoch is None:
+        raise ValueError("write_oem needs an epoch: pass epoch= (UTC at t = 0) or give the "
+                         "problem one (KeplerOrbit(..., epoch=...), or the intercept's)")
+    start = utc_datetime(epoch)
     if ref_frame not in INERTIAL_FRAMES:
         raise ValueError(f"ref_frame must be an Earth-centred inertial frame, one of "
                          f"{INERTIAL_FRAMES}, got {ref_frame!r}")

@@ -13,6 +13,7 @@ import jax.numpy as jnp
 from .._validation import Checked, Rule, check_scalars
 from ..constants import MU_EARTH
 from ..implicit import root
+from .epoch import canonical_epoch
 
 ANGLES = ("i", "raan", "argp", "f0")
 
@@ -24,9 +25,12 @@ class KeplerOrbit(Checked):
     eccentricity e in [0, 1), inclination i, right ascension of the ascending node raan and
     argument of perigee argp (rad, in the central body's inertial equatorial frame: ECI for
     the Earth), the true anomaly f0 (rad) at t = 0, and the gravitational parameter mu
-    (m^3/s^2, the Earth's by default).
+    (m^3/s^2, the Earth's by default). epoch: optionally, the UTC date and time of t = 0
+    (a datetime or an ISO 8601 string, held as its canonical string: `jaxlpm.orbits.epoch`);
+    no computation uses it, exported ephemerides are dated by it (`jaxlpm.io.write_oem`).
 
-    Every field is an array leaf, so sweeps over e or a reuse one compiled function.
+    Every field but the epoch is an array leaf, so sweeps over e or a reuse one compiled
+    function; the epoch is static (one per batch).
     """
 
     a: jax.Array
@@ -36,6 +40,10 @@ class KeplerOrbit(Checked):
     argp: jax.Array = 0.0
     f0: jax.Array = 0.0
     mu: jax.Array = field(default=MU_EARTH)
+    epoch: str | None = field(default=None, metadata=dict(static=True))
+
+    def __post_init__(self):
+        object.__setattr__(self, "epoch", canonical_epoch(self.epoch))
 
     def replace(self, **kwargs) -> "KeplerOrbit":
         return replace(self, **kwargs)
@@ -59,7 +67,8 @@ class KeplerOrbit(Checked):
 
     def harmless(self) -> "KeplerOrbit":
         """A valid circular orbit (stands in for an invalid member of a batch)."""
-        return KeplerOrbit(a=7.0e6, e=0.0, i=0.0, raan=0.0, argp=0.0, f0=0.0, mu=MU_EARTH)
+        return KeplerOrbit(a=7.0e6, e=0.0, i=0.0, raan=0.0, argp=0.0, f0=0.0, mu=MU_EARTH,
+                           epoch=self.epoch)
 
     @property
     def p(self):

@@ -16,6 +16,7 @@ import numpy as np
 
 from .._validation import Checked, Rule, check_shape, coerce_sequences, real_array
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH, G0
+from ..orbits.epoch import canonical_epoch
 from ..orbits.lambert import BRANCHES
 
 MAX_REVOLUTIONS = 5       # Lambert revolution counts tried when `revolutions` is None
@@ -45,6 +46,8 @@ class ImpulsiveIntercept(Checked):
                      (`jaxlpm.lambert`), or None: the one of least |dv|; moot for M = 0
     mu, j2, r_eq     gravity: mu (m^3/s^2), the J2 coefficient and the equatorial radius (m)
     max_revolutions  (static) the largest M tried when `revolutions` is None
+    epoch            (static, optional) the UTC date and time of t = 0 (a datetime or an ISO
+                     8601 string; `jaxlpm.orbits.epoch`): dates exported ephemerides
 
     Lambert seeds are prograde (angular momentum along +z). The solution is exact on the J2
     model: Newton shooting corrects the two-body seed (`jaxlpm.solvers.impulsive`).
@@ -60,9 +63,11 @@ class ImpulsiveIntercept(Checked):
     j2: jax.Array = J2_EARTH
     r_eq: jax.Array = R_EARTH
     max_revolutions: int = field(default=MAX_REVOLUTIONS, metadata=dict(static=True))
+    epoch: str | None = field(default=None, metadata=dict(static=True))
 
     def __post_init__(self):
         coerce_sequences(self)
+        object.__setattr__(self, "epoch", canonical_epoch(self.epoch))
         branch = self.branch
         if isinstance(branch, str):
             if branch not in BRANCHES:
@@ -138,7 +143,7 @@ class ImpulsiveIntercept(Checked):
             duration=jnp.asarray(3.0e4), r_target=jnp.array([0.0, r, 0.0]), burn_time=burn,
             revolutions=zero(self.revolutions), branch=zero(self.branch),
             mu=jnp.asarray(MU_EARTH), j2=jnp.asarray(J2_EARTH), r_eq=jnp.asarray(R_EARTH),
-            max_revolutions=self.max_revolutions)
+            max_revolutions=self.max_revolutions, epoch=self.epoch)
 
 
 @jax.tree_util.register_dataclass
