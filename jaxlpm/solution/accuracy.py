@@ -1,8 +1,9 @@
 """How accurate a solution is between its nodes, in SI, and the status that says so.
 
-Every collocated family estimates, inside its compiled solver, how far its state polynomial is
-from the flow of its own control (`jaxlpm.nlp.accuracy`, the GPOPS-II estimate) and reports it
-in `Solution.stats` (`accuracy_stats`):
+Every family estimates, inside its compiled solver, how far its states are from the flow of
+its own control (the collocated ones by `jaxlpm.nlp.accuracy`, the GPOPS-II estimate; the
+LQR sweep and the intercepts in their solvers' modules) and reports it in `Solution.stats`
+(`accuracy_stats`):
 
   error_position  (m)    the largest distance between the state polynomial and the flight of
                          its own control on the check mesh (`jaxlpm.nlp.accuracy.check_flight`),
