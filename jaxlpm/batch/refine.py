@@ -95,7 +95,8 @@ def refine_batch(problems, *, ladder=DEFAULT_LADDER, tolerance=DEFAULT_TOLERANCE
             breaks = np.tile(np.asarray(lgr_mesh(k, 2).breaks), (todo.size, 1))
         else:
             breaks = np.stack([split_breaks(b, e, k) for b, e in
-                               zip(np.asarray(carry["breaks"]), np.asarray(carry["segment_error"]))])
+                               zip(np.asarray(carry["breaks"]),
+                                   np.asarray(carry["segment_error"]))])
         fn = _rung_function(shape, previous, rung_options(options, k), tolerance, width, record,
                             gradients)
         recs, new_carry = fn(_take(problems, todo), jnp.asarray(breaks),

@@ -43,6 +43,13 @@ def hcw_rhs(t, x, u, n):
     return hcw_matrix(n) @ x + jnp.concatenate([jnp.zeros(3), u])
 
 
+def hcw_unit_rates(s, x, u, data, params):
+    """The HCW equations in tau = n t (n = 1: positions in a length unit L, velocities in
+    L n, accelerations u in L n^2), with the `OptimalControlProblem` dynamics signature
+    (data and params unused): what the check flights of the HCW families integrate."""
+    return hcw_rhs(s, x, u, jnp.ones((), x.dtype))
+
+
 def elliptic_lvlh_matrix(r, w, w_dot, mu):
     """Linearised relative motion about an elliptic chief, in time (Yamanaka-Ankersen eq. 2):
 

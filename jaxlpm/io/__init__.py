@@ -4,7 +4,8 @@
 Monte Carlo result in one .npz archive with JSON metadata, no pickle, loaded back exactly
 (`read_metadata` reads the metadata alone). `to_csv(solution, path, times=None)`: t, the
 state, the control and |u| as a CSV table in the solution's frame. `write_oem(solution,
-path, epoch, ...)`: a CCSDS OEM of the deputy's (or the chief's) inertial ephemeris;
+path, epoch=None, ...)`: a CCSDS OEM of the deputy's (or the chief's) inertial ephemeris,
+dated by the given epoch or the problem's own;
 `inertial_states` gives those states as an array. `columns(result)` / `to_dataframe(result)`:
 sweep and Monte Carlo results as flat columns or a pandas DataFrame (pandas optional).
 """

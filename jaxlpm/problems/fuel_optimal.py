@@ -32,6 +32,7 @@ import jax.numpy as jnp
 from .._validation import Checked, Rule, coerce_sequences
 from ..constants import G0
 from ..dynamics import hcw_flow, hcw_matrix
+from ..dynamics.linear import hcw_unit_rates
 from ..linalg import dense_solve
 from ..collocation.segments import LGRMesh, SegmentedMesh
 from ..nlp.accuracy import check_flight, check_mesh, collocation_defects
@@ -211,21 +212,8 @@ def to_nlp(problem: FuelOptimalTransfer, mesh) -> FuelNLP:
                    d=xf - cond.Phi @ x0, cond=cond, mesh_s=mesh_s, x0=x0, xf=xf, umax=umax)
 
 
-def _hcw(s, x, u, data, p):
-    A, B = hcw_input_matrices()
-    return A @ x + B @ u
-
-
 def _thrust_bound(s, x, u, data, p):
     return (jnp.linalg.norm(u) - p["umax"])[None]
-
-
-def _no_cost(s, x, u, data, p):
-    return 0.0 * s
-
-
-def _no_boundary(x0, xf, sf, p):
-    return jnp.zeros(0, x0.dtype)
 
 
 def collocation_accuracy(problem: FuelOptimalTransfer, nlp: FuelNLP, X, U):
@@ -243,9 +231,8 @@ def collocation_accuracy(problem: FuelOptimalTransfer, nlp: FuelNLP, X, U):
     grid = LGRMesh(breaks=2.0 * m.breaks / sf - 1.0, segment=m.grid)
     rows = jnp.concatenate([X[:, :npts].reshape(K * npts, 6), X[-1, -1:]])
     check = check_mesh(grid)
-    ocp = OptimalControlProblem(n_x=6, n_u=3, dynamics=_hcw, running_cost=_no_cost,
-                                boundary=_no_boundary, s0=jnp.zeros_like(sf), sf=sf,
-                                params={"umax": nlp.umax}, path=_thrust_bound)
+    ocp = OptimalControlProblem(n_x=6, n_u=3, dynamics=hcw_unit_rates, s0=jnp.zeros_like(sf),
+                                sf=sf, params={"umax": nlp.umax}, path=_thrust_bound)
     U = U.reshape(K * npts, 3)
     d = collocation_defects(ocp, check, grid, rows, U)
     flown = check_flight(ocp, check, grid, rows, U, newton_steps=1)    # linear: exact

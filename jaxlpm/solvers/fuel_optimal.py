@@ -4,8 +4,9 @@ refinement at the switching times (Yue & Duan 2016's pipeline: an energy-optimal
 pseudospectral solution, then the homotopy to the bang-bang fuel optimum).
 
 `jaxlpm.solve(problem, mesh)` (`run`): one mesh (jit; vmap over problems and meshes of one
-shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy tolerance (`refine_transfer`). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method, shooting on the
-costates with the smoothed switching law, continued in eps from the LGR costates.
+shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy tolerance
+(`refine_transfer`). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method,
+shooting on the costates with the smoothed switching law, continued in eps from the LGR costates.
 `refine_fuel_optimal(problems, segments, points)`: host-side passes over meshes with a break at
 every switching time of the previous solution (`aligned_breaks`), the first mesh uniform, until
 the fuel changes by less than `fuel_tol` (relative); a batch of problems is one vmapped call
@@ -105,15 +106,18 @@ def refine_transfer(problem, options, judge, segments=REFINE_SEGMENTS,
     (`judge` leaves it SUCCESS) or the last mesh (then INACCURATE). A solve that fails
     outright (not converged) ends the refinement with its status. stats gain mesh_passes."""
     options = HomotopyOptions() if options is None else options
+
+    def solve_on(breaks):
+        return judge(run(problem, segmented_lgr(breaks, points), "homotopy", options))
+
     T = float(problem.duration)
-    meshes = [None] + [count for count in segments for _ in range(passes)]
-    for k, count in enumerate(meshes):
-        breaks = (uniform_breaks(0.0, 1.0, segments[0]) if count is None
-                  else aligned_breaks(0.0, 1.0, count, switching_times(solution) / T))
-        solution = judge(run(problem, segmented_lgr(breaks, points), "homotopy", options))
+    solution, done = solve_on(uniform_breaks(0.0, 1.0, segments[0])), 1
+    for count in (count for count in segments for _ in range(passes)):
         if int(solution.status) != Status.INACCURATE:
             break
-    return solution.replace(stats=dict(solution.stats, mesh_passes=k + 1))
+        solution = solve_on(aligned_breaks(0.0, 1.0, count, switching_times(solution) / T))
+        done += 1
+    return solution.replace(stats=dict(solution.stats, mesh_passes=done))
 
 
 FAMILY = FamilySolver(

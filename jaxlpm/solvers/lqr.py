@@ -62,6 +62,7 @@ import numpy as np
 from .._validation import check_finite, check_shape, is_concrete, require_x64
 from ..collocation import lgr
 from ..dynamics import hcw_matrix
+from ..dynamics.linear import hcw_unit_rates
 from ..nlp.accuracy import CHECK_POINTS, piecewise_flight
 from ..nlp.ocp import OptimalControlProblem
 from ..problems.lqr import LQRTransfer
@@ -198,11 +199,6 @@ def _sweep(n, Q, R, x0, duration, S_T, hard: bool, steps: int):
     return flow, (c / n) * (running + terminal), P0, K0
 
 
-def _hcw_rates(s, x, u, data, params):
-    """x^' = A^ x^ + B^ u^ in the sweep's units (tau = n t)."""
-    return hcw_matrix(jnp.ones((), x.dtype)) @ x + _input_matrix(x.dtype) @ u
-
-
 def flight_accuracy(flow: HamiltonianFlow):
     """`jaxlpm.solution.accuracy` stats (SI, LVLH) of a sweep: its control u(t), flown on
     CHECK_POINTS Radau points per step from x0 (`piecewise_flight`: collocation of the IVP,
@@ -219,7 +215,7 @@ def flight_accuracy(flow: HamiltonianFlow):
     z = jnp.einsum("gij,kj->kgi", E, flow.nodes[:-1])                     # (steps, m_c, 2m)
     X, U = z[..., :m], -jnp.einsum("ij,kgj->kgi", flow.gain, z[..., m:])
     s = h * (jnp.arange(flow.steps)[:, None] + 0.5 * (tau + 1.0))
-    ocp = OptimalControlProblem(n_x=m, n_u=U.shape[-1], dynamics=_hcw_rates)
+    ocp = OptimalControlProblem(n_x=m, n_u=U.shape[-1], dynamics=hcw_unit_rates)
     flown = piecewise_flight(ocp, segment, X, U, s, jnp.full(flow.steps, 0.5 * h),
                              newton_steps=1)
     states = jnp.concatenate([X[:, 1:], flow.nodes[1:, None, :m]], axis=1)

@@ -273,8 +273,8 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder = LADDER):
 def run(problem, grid, method, options: ALOptions) -> Solution:
     """Solve a `MinimumTimeTransfer` on `grid` (LGL, LG, LGR or an `LGRMesh`) by the
     augmented-Lagrangian solver; outputs in SI (LVLH, m, m/s, m/s^2, s). jit-compiled once
-    per grid size (and options); vmap- and grad-able (implicit differentiation at the KKT point). Traced bad
-    input gives status INVALID_INPUT and zeroed outputs.
+    per grid size (and options); vmap- and grad-able (implicit differentiation at the KKT
+    point). Traced bad input gives status INVALID_INPUT and zeroed outputs.
 
     INFEASIBLE only where infeasibility is shown: t_max below `duration_lower_bound` (then
     no solve runs: outputs zero, stats["duration_lower_bound"] the bound), or the AL's
