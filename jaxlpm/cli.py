@@ -7,6 +7,7 @@ import argparse
 import json
 import os
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -48,6 +49,38 @@ def _require_writable(prog: str, paths: dict) -> None:
             raise SystemExit(2)
 
 
+class _Heartbeat:
+    """The reproductions' log: prints a line, and while used as a context, a line every
+    `every` seconds without one, saying what is still running (a first compile can take tens
+    of seconds on a small machine)."""
+
+    def __init__(self, t0, every=10.0):
+        self.t0, self.every = t0, every
+        self.last, self.message = time.perf_counter(), ""
+        self._stop = threading.Event()
+
+    def __call__(self, msg):
+        self.last, self.message = time.perf_counter(), str(msg).strip().splitlines()[-1:]
+        print(msg, flush=True)
+
+    def _beat(self):
+        while not self._stop.wait(1.0):
+            now = time.perf_counter()
+            if now - self.last >= self.every:
+                self.last = now
+                doing = self.message[0] if self.message else "starting"
+                print(f"  ... {now - self.t0:.0f} s, still on: {doing}", flush=True)
+
+    def __enter__(self):
+        self._thread = threading.Thread(target=self._beat, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+
+
 def _reproduce(args):
     t0 = time.perf_counter()
     from .cases import CASES
@@ -58,13 +91,12 @@ def _reproduce(args):
     _require_writable("jaxlpm reproduce", {"--out": (out_dir, True),
                                            "--json": (json_path, False)})
 
-    def log(msg):
-        print(msg, flush=True)
-
+    log = _Heartbeat(t0)
     log(f"jaxlpm reproduce {args.case}: importing JAX and the library ...")
     cache = _setup_jax()
     log(f"{case.TITLE}\ncompilation cache: {cache}")
-    result = case.reproduce(out_dir, log)
+    with log:
+        result = case.reproduce(out_dir, log)
     json_path.parent.mkdir(parents=True, exist_ok=True)
     json_path.write_text(json.dumps(result, indent=2))
     log(f"wrote {json_path}\ndone in {time.perf_counter() - t0:.1f} s")

@@ -10,7 +10,6 @@ dispersion of mei2010-like problems used by the robustness and Monte Carlo studi
 (`dispersion`, `dispersion_parameters`).
 """
 
-import functools
 import time
 
 import jax
@@ -140,31 +139,6 @@ def dispersion_parameters(problems: EnergyOptimalTransfer) -> dict:
     return out
 
 
-# The laws and the Newton-KKT transfers run once per grid here, so LLVM's backend optimisation
-# is skipped for them (it is most of their compile time); the propagators' long loops keep it.
-_QUICK = {"xla_backend_optimization_level": 0}
-
-
-def _solver(points, method):
-    return jax.jit(functools.partial(solve, grid=lgl(points), method=method, throw=False))
-
-
-def _compile_all(prob, log):
-    """AOT-compile every (law, N) and the Newton-KKT transfers, one after the other: compiling
-    in two threads while the other thread loads an executable from the persistent cache
-    crashed jaxlib 0.10 (a segmentation fault in the cache read, seen once in the test
-    suite)."""
-    jobs = {("newton", model): (_solver(N_HEADLINE + 1, "newton"), prob.replace(model=model))
-            for model in NONLINEAR_MODELS}
-    jobs.update({(law, N): (_solver(N + 1, law), prob) for law in LQ_LAWS
-                 for N in N_CONVERGENCE})
-    t = time.perf_counter()
-    compiled = {k: f.lower(p).compile(compiler_options=_QUICK) for k, (f, p) in jobs.items()}
-    log(f"compiled {len(compiled)} solvers (2 laws x {len(N_CONVERGENCE)} grids, "
-        f"{len(NONLINEAR_MODELS)} Newton-KKT transfers) in {time.perf_counter() - t:.1f} s")
-    return compiled
-
-
 def _pair(x):
     return [float(v) for v in np.asarray(x)]
 
@@ -179,29 +153,35 @@ def _flown(solution, model):
 def compute(log=print):
     """Solve, verify and collect everything the reproduction reports."""
     prob = problem()
-    compiled = _compile_all(prob, log)
+    jobs = [(law, N) for N in N_CONVERGENCE for law in LQ_LAWS]
     t = time.perf_counter()
-    sols = {(law, N): compiled[(law, N)](prob) for law in LQ_LAWS for N in N_CONVERGENCE}
+    sols = {}
+    for k, (law, N) in enumerate(jobs):
+        log(f"[{k + 1}/{len(jobs)}] {law.upper()} law on lgl({N + 1})")
+        sols[(law, N)] = solve(prob, lgl(N + 1), method=law, throw=False)
     # a coarse grid converges but does not resolve the transfer: INACCURATE is its answer
     bad = [k for k, s in sols.items() if int(s.status) not in (Status.SUCCESS,
                                                                 Status.INACCURATE)]
     if bad:
         raise RuntimeError(f"solves did not succeed: {[(k, sols[k].message) for k in bad]}")
-    log(f"solved both laws at N = {list(N_CONVERGENCE)} in {time.perf_counter() - t:.2f} s")
+    log(f"solved both laws at N = {list(N_CONVERGENCE)} in {time.perf_counter() - t:.1f} s "
+        f"(compiling included)")
 
     t = time.perf_counter()
+    log(f"flying {len(sols)} solutions on the linear model and 2 on the two-body model")
     lin = {key: _flown(s, "linear") for key, s in sols.items()}
     nonlin = {law: _flown(sols[(law, N_HEADLINE)], "two-body") for law in LQ_LAWS}
     log(f"flew {len(lin)} linear and {len(nonlin)} nonlinear flights (Dopri8, rtol 1e-12) "
         f"in {time.perf_counter() - t:.1f} s")
 
-    t = time.perf_counter()
     transfers = {}
     for model in NONLINEAR_MODELS:
-        s = compiled[("newton", model)](prob.replace(model=model))
+        t = time.perf_counter()
+        log(f"Newton-KKT transfer on the {model} model, lgl({N_HEADLINE + 1})")
+        s = solve(prob.replace(model=model), lgl(N_HEADLINE + 1), method="newton",
+                  throw=False)
         transfers[model] = (s, _flown(s, model))
-    log(f"solved and flew the Newton-KKT transfers ({', '.join(NONLINEAR_MODELS)}) in "
-        f"{time.perf_counter() - t:.2f} s")
+        log(f"solved and flew it in {time.perf_counter() - t:.1f} s")
 
     err = lambda flight: _pair(flight.terminal_error)
     estimate = lambda s: [float(s.stats["error_position"]),        # noqa: E731

@@ -21,6 +21,8 @@ Differentiable in reverse mode (diffrax's recursive checkpointing adjoint) unles
 `Integrator` says otherwise; `j2 = 0` gives exactly two-body. SI units: m, m/s, s.
 """
 
+import contextlib
+import importlib
 from dataclasses import dataclass
 
 import diffrax
@@ -59,6 +61,27 @@ def _all_finite(tree):
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
 
 
+@contextlib.contextmanager
+def _runtime_checks_as_nan():
+    """Trace diffrax with equinox's runtime checks (`eqx.error_if`: e.g. saveat times out of
+    order) returning NaN instead of raising through a host callback, where the user has not
+    chosen otherwise (EQX_ON_ERROR unset, i.e. "raise"). `solve_ode` never raises: a NaN
+    becomes its NONFINITE status. A program without host callbacks is also one that JAX's
+    persistent cache and `jaxlpm.compilation` can keep on disk (issue 21: the flights and
+    the J2 transfers were compiled again on every run). equinox reads the mode from its
+    module `equinox._errors` when a check is traced; if that attribute is gone, nothing
+    changes."""
+    errors = importlib.import_module("equinox._errors")
+    if getattr(errors, "EQX_ON_ERROR", None) != "raise":
+        yield
+        return
+    errors.EQX_ON_ERROR = "nan"
+    try:
+        yield
+    finally:
+        errors.EQX_ON_ERROR = "raise"
+
+
 def solve_ode(rhs, y0, t0, t1, saveat, integrator: Integrator):
     """Integrate dy/dt = rhs(t, y) (y any pytree) from t0 to t1 with PID-controlled adaptive
     steps (dt0 chosen by diffrax) and the `integrator`'s settings; never raises (diffrax
@@ -73,12 +96,14 @@ def solve_ode(rhs, y0, t0, t1, saveat, integrator: Integrator):
     """
     bad = ~(jnp.isfinite(t1 - t0) & _all_finite(y0) & _all_finite(rhs(t0, y0)))
     blank = lambda tree: jax.tree_util.tree_map(lambda x: jnp.where(bad, 0.0, x), tree)
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(lambda t, y, args: blank(rhs(t, y))),
-        getattr(diffrax, integrator.solver)(), t0, t1, dt0=None, y0=blank(y0), saveat=saveat,
-        stepsize_controller=diffrax.PIDController(rtol=integrator.rtol, atol=integrator.atol),
-        max_steps=integrator.max_steps, adjoint=getattr(diffrax, integrator.adjoint)(),
-        throw=False)
+    with _runtime_checks_as_nan():
+        sol = diffrax.diffeqsolve(
+            diffrax.ODETerm(lambda t, y, args: blank(rhs(t, y))),
+            getattr(diffrax, integrator.solver)(), t0, t1, dt0=None, y0=blank(y0),
+            saveat=saveat, max_steps=integrator.max_steps,
+            stepsize_controller=diffrax.PIDController(rtol=integrator.rtol,
+                                                      atol=integrator.atol),
+            adjoint=getattr(diffrax, integrator.adjoint)(), throw=False)
     success = (sol.result == diffrax.RESULTS.successful) & _all_finite(sol.ys)
     out_of_steps = sol.result == diffrax.RESULTS.max_steps_reached
     status = jnp.select([bad, success, out_of_steps],

@@ -15,12 +15,12 @@ it is (its x, y, z taken as Cartesian LVLH coordinates).
 Intercepts (frame "inertial"): the spacecraft's own states; they have no chief.
 """
 
-import functools
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compilation import compiled
 from ..dynamics import gravity_acceleration
 from ..dynamics.ephemeris import j2_ephemeris, kepler_ephemeris
 from ..orbits import lvlh_to_relative_inertial
@@ -29,7 +29,7 @@ from .sampling import evaluate, sample_times, single
 SPACECRAFT = ("deputy", "chief")
 
 
-@functools.partial(jax.jit, static_argnames=("j2_model",))
+@compiled(static_argnames=("j2_model",))
 def _relative(solution, ts, j2_model: bool):
     """(chief [r, v] (k, 6), deputy [r, v] (k, 6), ok) at increasing times ts (s)."""
     problem = solution.problem

@@ -1,8 +1,9 @@
 """Where a table or an ephemeris samples one solution: the times (s since the start) and the
 solution's states and controls there (in its frame, SI)."""
 
-import jax
 import numpy as np
+
+from ..compilation import compiled
 
 DEFAULT_SAMPLES = 201
 """Uniform samples over [0, duration] when an export is given no times."""
@@ -36,7 +37,7 @@ def sample_times(solution, times=None) -> np.ndarray:
     return t
 
 
-@jax.jit
+@compiled
 def evaluate(solution, t):
     """(states (len(t), 6), controls (len(t), 3)) of one solution at times t (s), compiled
     once per solution structure and number of times."""

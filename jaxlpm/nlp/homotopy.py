@@ -28,13 +28,13 @@ failed with every point at full thrust or with the dual ascent running away (the
 reach the target in the time); MAX_ITERATIONS, NONFINITE otherwise.
 """
 
-import functools
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 
+from ..compilation import compiled
 from ..linalg import small_spd_solve
 from ..status import Status
 
@@ -248,7 +248,7 @@ def _homotopy(E, c, d, nu0, options: HomotopyOptions):
                           energy_residual=res_e)
 
 
-@functools.partial(jax.jit, static_argnames="options")
+@compiled(static_argnames="options")
 def energy_to_fuel(E, c, d, nu0=None,
                    options: HomotopyOptions = HomotopyOptions()) -> HomotopyResult:
     """Run the homotopy for the condensed problem (E (m, n_x, 3), c (m,), d (n_x,); see the

@@ -22,11 +22,10 @@ traced (under jit/vmap) it solves on the default grid and reports the estimate a
 """
 
 import dataclasses
-import functools
 
-import jax
 import jax.numpy as jnp
 
+from ..compilation import compiled
 from ..collocation import Grid, lgl
 from ..collocation.segments import LGRMesh
 from ..nlp.newton import NewtonOptions
@@ -40,20 +39,20 @@ from .transfer import newton_transfer
 DEFAULT_POINTS = 65            # Mei 2010's N = 64
 MIN_LAW_POINTS = 4   # the KKT law needs interior nodes beyond the 2 velocity conditions per axis
 MIN_NEWTON_POINTS = {"LGL": 4, "LG": 3, "LGR": 3}
-_LAWS = {"stm": jax.jit(stm_law), "kkt": jax.jit(kkt_law)}
+_LAWS = {"stm": compiled(stm_law), "kkt": compiled(kkt_law)}
 
 
-@functools.partial(jax.jit, static_argnames="options")
+@compiled(static_argnames="options")
 def _newton(problem, grid, options):
     return newton_transfer(problem, grid, options)
 
 
-@functools.partial(jax.jit, static_argnames="options")
+@compiled(static_argnames="options")
 def _newton_from(problem, grid, options, z0):
     return newton_transfer(problem, grid, options, z0=z0)
 
 
-@jax.jit
+@compiled
 def _guess(solution, mesh):
     """z0 on `mesh` from a Newton-KKT solution on a coarser mesh (`interpolated_guess` of its
     scaled state rows and controls)."""

@@ -79,6 +79,7 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
+from ..compilation import compiled
 from ..collocation import Grid, lgl
 from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import VARIATIONAL, propagate, solve_ode
@@ -381,7 +382,7 @@ def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions)
                     method="augmented-lagrangian", frame="inertial")
 
 
-_compiled = jax.jit(_finite_burn, static_argnames="options")
+_compiled = compiled(_finite_burn, static_argnames="options")
 
 
 def check_grid(grid, method):

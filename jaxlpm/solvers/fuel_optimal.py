@@ -26,6 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compilation import compiled
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
 from ..collocation.segments import SegmentedMesh, aligned_breaks, segmented_lgr, uniform_breaks
@@ -65,7 +66,7 @@ def _fuel_optimal_transfer(problem, mesh, options):
                        valid)
 
 
-_compiled = jax.jit(_fuel_optimal_transfer, static_argnames="options")
+_compiled = compiled(_fuel_optimal_transfer, static_argnames="options")
 
 
 DEFAULT_SEGMENTS, DEFAULT_POINTS = 24, 8     # Yue & Duan 2016's mesh
@@ -165,7 +166,7 @@ def _indirect(problem, breaks, nu0, nodes, weights, options):
         status=res.status, homotopy_steps=res.steps, newton_iterations=res.newton_iterations)
 
 
-_indirect_compiled = jax.jit(_indirect, static_argnames="options")
+_indirect_compiled = compiled(_indirect, static_argnames="options")
 
 
 def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points: int = 8,
@@ -199,7 +200,7 @@ def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points
                               jnp.asarray(weights), options)
 
 
-@jax.jit
+@compiled
 def _primer_norm(sol, ts):
     return jax.vmap(lambda t: jnp.linalg.norm(primer(sol, t)))(ts)
 

@@ -45,6 +45,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from ..compilation import compiled
 from ..constants import MU_EARTH
 from ..dynamics.propagation import EPHEMERIS, propagate
 from ..implicit import root
@@ -276,7 +277,7 @@ def solve_impulsive(problem: ImpulsiveIntercept) -> Solution:
                     method="shooting", frame="inertial")
 
 
-_compiled = jax.jit(solve_impulsive)
+_compiled = compiled(solve_impulsive)
 
 
 def check_grid(grid, method):

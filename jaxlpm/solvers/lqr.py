@@ -59,6 +59,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compilation import compiled
 from .._validation import check_finite, check_shape, is_concrete, require_x64
 from ..collocation import lgr
 from ..dynamics import hcw_matrix
@@ -123,7 +124,7 @@ def _hcw_lqr(n, Q, R):
     return _to_si(care(A, B, Qh, Rh), valid, n, s, c)
 
 
-_scaled_problem_jit, _to_si_jit = jax.jit(_scaled_problem), jax.jit(_to_si)
+_scaled_problem_jit, _to_si_jit = compiled(_scaled_problem), compiled(_to_si)
 
 
 def hcw_lqr(n, Q, R) -> CareSolution:
@@ -254,7 +255,7 @@ def _lqr_transfer(problem: LQRTransfer, steps: int) -> Solution:
                     stats=zero_invalid(ok, stats), method="riccati", frame="LVLH")
 
 
-_compiled = jax.jit(_lqr_transfer, static_argnames="steps")
+_compiled = compiled(_lqr_transfer, static_argnames="steps")
 
 
 def check_grid(grid, method):

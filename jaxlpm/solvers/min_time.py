@@ -34,6 +34,7 @@ import math
 import jax
 import jax.numpy as jnp
 
+from ..compilation import compiled
 from ..collocation import Grid, lg
 from ..collocation.segments import LGRMesh
 from ..linalg import cholesky_solve, small_spd_solve
@@ -236,7 +237,7 @@ def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
     return dataclasses.replace(solution, problem=requested)
 
 
-_compiled = jax.jit(_min_time_transfer, static_argnames="options")
+_compiled = compiled(_min_time_transfer, static_argnames="options")
 
 
 DEFAULT_POINTS = 32

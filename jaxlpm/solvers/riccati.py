@@ -43,6 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compilation import compiled
 from .._validation import Checked, Rule, real_array, require_x64
 from ..implicit import root
 from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, sequential_when_batched
@@ -281,7 +282,7 @@ def _care(A, B, Q, R):
         ok, care_residual(P, A, B, Q, R), 0.0), iterations=k, rcond=rcond, status=status)
 
 
-_care_jit = jax.jit(_care)
+_care_jit = compiled(_care)
 
 
 @jax.tree_util.register_dataclass

@@ -29,13 +29,13 @@ states are [r, v] (the mass is integrated but not returned) and a failed flight 
 NONFINITE.
 """
 
-import functools
 from dataclasses import dataclass, field
 
 import diffrax
 import jax
 import jax.numpy as jnp
 
+from ..compilation import compiled
 from .._validation import require_x64
 from ..constants import J2_EARTH, R_EARTH
 from ..dynamics import elliptic_lvlh_rhs, gravity_acceleration, relative_inertial_rhs
@@ -157,7 +157,7 @@ def _largest_difference(a, b):
                       jnp.max(jnp.linalg.norm(d[:, 3:], axis=1))])
 
 
-@functools.partial(jax.jit, static_argnames=("linear", "n_save"))
+@compiled(static_argnames=("linear", "n_save"))
 def _fly_lvlh(orbit, x0, xf, duration, control, j2, r_eq, linear, n_save):
     """One flight: (times, states, terminal error, status). `control` is padded, so this
     compiles once per (linear or not, n_save, control kind), whatever the grid's size; j2 = 0
@@ -169,7 +169,7 @@ def _fly_lvlh(orbit, x0, xf, duration, control, j2, r_eq, linear, n_save):
     return ts, xs, terminal_error(xs, xf), status
 
 
-@jax.jit
+@compiled
 def _planned(solution, ts):
     return solution.states(ts)
 
@@ -219,7 +219,7 @@ def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
     return one(solution, j2, r_eq)
 
 
-@functools.partial(jax.jit, static_argnames="n_save")
+@compiled(static_argnames="n_save")
 def _fly_intercept(solution, j2, n_save):
     """One intercept flight: (times, [r, v] states, terminal error, plan error, status)."""
     tr = solution.trajectory

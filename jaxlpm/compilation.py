@@ -1,0 +1,232 @@
+"""How the library's solvers are compiled: XLA options for programs that run a few times, and
+an on-disk cache of whole compiled executables, so that a script run again starts in
+seconds.
+
+`compiled(fun, static_argnames=())` is the library's `jax.jit` for its entry points (each
+family's solver, the flights). Called with traced arguments (inside a user's jit, vmap or
+grad) it is `jax.jit(fun)` and inlines into the caller's program. Called with concrete
+arguments it runs an ahead-of-time compiled executable, found in this order:
+
+1. in memory, by (the arguments' pytree structure, shapes and dtypes, the static arguments);
+2. on disk (`cache_dir()`): an executable this machine compiled before, serialized with its
+   input and output pytree structures by `jax.experimental.serialize_executable`, under a
+   key that names everything the program depends on: the function, the arguments' structure
+   and shapes, the static arguments, the source of every jaxlpm module, the versions of
+   jax, jaxlib and the other numeric packages, XLA_FLAGS, the compile profile and the CPU;
+3. else traced, lowered and compiled with the profile's XLA options, then written to disk
+   (atomically: parallel test workers share the folder; an unreadable entry is a miss).
+JAX's own persistent cache (`jax_compilation_cache_dir`) saves only XLA's compile step:
+tracing and lowering, 26 of a warm 38 s `jaxlpm reproduce mei2010` (issue 21), ran again
+every time. An executable loads in about 0.2 s.
+
+Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
+  "fast" (default)  XLA:CPU with LLVM optimisation level 0 and its classic (non-MLIR) loop
+                    emitters. Measured on the 2-core CPU VM (experiments/benchmarks/
+                    bench_compile.py): the Newton-KKT transfer of mei2010 (two-body, lgl(65))
+                    compiles in 8.2 s instead of 17.4 s and solves in 0.15 s instead of
+                    0.064 s; the KKT law compiles in 1.3 s instead of 5.0 s and runs in 0.056
+                    s instead of 0.019 s. Results agree to round-off.
+  "optimized"       XLA's defaults: for a script that calls `solve` thousands of times one by
+                    one (batches under jax.vmap inside the user's jax.jit get the user's
+                    options in any case).
+On platforms other than CPU both profiles are XLA's defaults.
+
+The folder is JAXLPM_CACHE_DIR (default ~/.cache/jaxlpm/jax, the CLI's compilation cache);
+JAXLPM_CACHE_DIR="" turns the disk cache off. `clear()` empties the memory cache (the test
+suite calls it with `jax.clear_caches()` between modules).
+"""
+
+import functools
+import hashlib
+import importlib.metadata
+import inspect
+import os
+import pickle
+import platform
+import tempfile
+import warnings
+from pathlib import Path
+
+import jax
+
+PROFILES = {
+    "fast": {"xla_backend_optimization_level": 0, "xla_cpu_use_fusion_emitters": False},
+    "optimized": {},
+}
+_PACKAGES = ("jax", "jaxlib", "numpy", "jaxopt", "diffrax", "equinox", "lineax", "optimistix")
+_SUBFOLDER = "executables"
+_FORMAT = 1   # bump when the entry's layout changes
+
+_profile = os.environ.get("JAXLPM_COMPILE", "fast")
+_memory: dict = {}
+
+
+def set_profile(name: str) -> None:
+    """Compile the library's solvers with profile `name` ("fast" or "optimized"; module
+    docstring) from now on; executables already compiled stay as they are."""
+    global _profile
+    if name not in PROFILES:
+        raise ValueError(f"profile must be one of {sorted(PROFILES)}, got {name!r}")
+    _profile = name
+
+
+def profile() -> str:
+    """The current compile profile's name."""
+    if _profile not in PROFILES:
+        raise ValueError(f"JAXLPM_COMPILE must be one of {sorted(PROFILES)}, got {_profile!r}")
+    return _profile
+
+
+def compiler_options() -> dict:
+    """The XLA options of the current profile on this backend."""
+    return dict(PROFILES[profile()]) if jax.default_backend() == "cpu" else {}
+
+
+def cache_dir() -> Path | None:
+    """The folder of the executable cache (module docstring), None when it is off."""
+    root = os.environ.get("JAXLPM_CACHE_DIR")
+    if root == "":
+        return None
+    root = Path(root) if root else Path.home() / ".cache" / "jaxlpm" / "jax"
+    return root / _SUBFOLDER
+
+
+def clear() -> None:
+    """Forget the executables held in memory (those on disk stay)."""
+    _memory.clear()
+
+
+@functools.cache
+def _environment() -> str:
+    """What every executable depends on beyond its own arguments (module docstring, 2.)."""
+    digest = hashlib.sha256()
+    package = Path(__file__).resolve().parent
+    for path in sorted(package.rglob("*.py")):
+        digest.update(str(path.relative_to(package)).encode())
+        digest.update(path.read_bytes())
+    versions = []
+    for name in _PACKAGES:
+        try:
+            versions.append(f"{name}={importlib.metadata.version(name)}")
+        except importlib.metadata.PackageNotFoundError:
+            versions.append(f"{name}=-")
+    return "\n".join([digest.hexdigest(), *versions, os.environ.get("XLA_FLAGS", ""),
+                      platform.machine(), _cpu_flags(), str(jax.devices()[0])])
+
+
+def _cpu_flags() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            return next((line for line in f if line.startswith("flags")), "")
+    except OSError:
+        return platform.processor()
+
+
+def _aval(leaf):
+    return str(jax.typeof(leaf))
+
+
+class Compiled:
+    """A function compiled once per argument signature (module docstring); call it like
+    the function."""
+
+    def __init__(self, fun, static_argnames=()):
+        self.fun = fun
+        self.name = f"{fun.__module__}.{fun.__qualname__}"
+        static = (static_argnames,) if isinstance(static_argnames, str) else static_argnames
+        self.static = tuple(static)
+        self.signature = inspect.signature(fun)
+        self.dynamic = tuple(n for n in self.signature.parameters if n not in self.static)
+        self.jit = jax.jit(self._adapter, static_argnums=1)
+        functools.update_wrapper(self, fun)
+
+    def _adapter(self, dynamic, static):
+        return self.fun(**dict(zip(self.dynamic, dynamic)), **dict(static))
+
+    def _split(self, args, kwargs):
+        bound = self.signature.bind(*args, **kwargs)
+        bound.apply_defaults()
+        values = bound.arguments
+        return (tuple(values[n] for n in self.dynamic),
+                tuple((n, values[n]) for n in self.static))
+
+    def __call__(self, *args, **kwargs):
+        dynamic, static = self._split(args, kwargs)
+        leaves, tree = jax.tree_util.tree_flatten(dynamic)
+        if jax.config.jax_disable_jit or any(isinstance(x, jax.core.Tracer) for x in leaves):
+            return self.jit(dynamic, static)
+        key = (self.name, tree, tuple(_aval(x) for x in leaves), static, profile())
+        executable = _memory.get(key)
+        if executable is None:
+            executable = _memory[key] = self._load_or_compile(key, dynamic, static)
+        return executable(dynamic)
+
+    def _load_or_compile(self, key, dynamic, static):
+        path = _entry(key)
+        if path is not None and path.exists():
+            executable = _load(path)
+            if executable is not None:
+                return executable
+        executable = self.jit.lower(dynamic, static).compile(compiler_options())
+        if path is not None:
+            _store(path, executable)
+        return executable
+
+
+def compiled(fun=None, *, static_argnames=()):
+    """`Compiled(fun, static_argnames)`; usable as a decorator with or without arguments."""
+    if fun is None:
+        return functools.partial(compiled, static_argnames=static_argnames)
+    return Compiled(fun, static_argnames)
+
+
+def _entry(key):
+    """The file of an executable, None when the disk cache is off or the key is not stable
+    across processes (an argument whose repr holds a memory address)."""
+    folder = cache_dir()
+    text = repr(key)
+    if folder is None or " at 0x" in text:
+        return None
+    digest = hashlib.sha256(f"{_FORMAT}\n{_environment()}\n{text}".encode()).hexdigest()
+    return folder / f"{key[0].rsplit('.', 1)[-1]}-{digest[:32]}.bin"
+
+
+@functools.cache
+def _prepare_runtime():
+    """jaxlib binds its LAPACK kernels (QR, LU, SVD, ...) when a program using them is first
+    lowered; an executable loaded in a process that has lowered none crashes in its first
+    LAPACK call. Lowering one QR (no compile, ~0.05 s) binds them by the public path."""
+    import jax.numpy as jnp
+
+    jax.jit(jnp.linalg.qr).lower(jnp.eye(2))
+
+
+def _load(path):
+    from jax.experimental.serialize_executable import deserialize_and_load
+
+    _prepare_runtime()
+    try:
+        payload, in_tree, out_tree = pickle.loads(path.read_bytes())
+        return deserialize_and_load(payload, in_tree, out_tree)
+    except Exception:                                   # noqa: BLE001 (unreadable: a miss)
+        return None
+
+
+def _store(path, executable):
+    """Write an executable (silently nothing for one that cannot be serialized: a program
+    with host callbacks, e.g. equinox's runtime checks inside diffrax's integrators)."""
+    from jax.experimental.serialize_executable import serialize
+
+    try:
+        blob = pickle.dumps(serialize(executable))
+    except Exception:                                   # noqa: BLE001 (not serializable)
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
+        with os.fdopen(fd, "wb") as f:
+            f.write(blob)
+        os.replace(tmp, path)
+    except OSError as err:
+        warnings.warn(f"jaxlpm could not cache a compiled solver in {path.parent}: {err}",
+                      RuntimeWarning, stacklevel=4)
