@@ -40,7 +40,7 @@ from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # 
 from .solvers.lqr import hcw_lqr  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
 from .status import Status, describe  # noqa: E402
-from . import batch, io, nlp, plot, verify  # noqa: E402
+from . import batch, compilation, io, nlp, plot, verify  # noqa: E402
 
 __version__ = "0.2.0"
 """The package version."""
@@ -52,7 +52,7 @@ __all__ = [
     "ImpulsiveIntercept", "KeplerOrbit", "LQRTransfer", "LambertSolution",
     "MinimumTimeTransfer", "NewtonOptions", "OptimalControlProblem", "SegmentedMesh",
     "Solution", "SolveError", "Status", "__version__", "aligned_breaks", "batch", "burn_arcs",
-    "care", "constants", "describe", "hcw_lqr", "indirect_fuel_optimal", "io", "lambert", "lg",
+    "care", "compilation", "constants", "describe", "hcw_lqr", "indirect_fuel_optimal", "io", "lambert", "lg",
     "lgl", "lgr", "make_grid", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lgr",
     "solve", "switching_function", "switching_times", "uniform_breaks", "verify",
 ]

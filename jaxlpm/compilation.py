@@ -20,12 +20,14 @@ tracing and lowering, 26 of a warm 38 s `jaxlpm reproduce mei2010` (issue 21), r
 every time. An executable loads in about 0.2 s.
 
 Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
-  "fast" (default)  XLA:CPU with LLVM optimisation level 0 and its classic (non-MLIR) loop
-                    emitters. Measured on the 2-core CPU VM (experiments/benchmarks/
-                    bench_compile.py): the Newton-KKT transfer of mei2010 (two-body, lgl(65))
-                    compiles in 8.2 s instead of 17.4 s and solves in 0.15 s instead of
-                    0.064 s; the KKT law compiles in 1.3 s instead of 5.0 s and runs in 0.056
-                    s instead of 0.019 s. Results agree to round-off.
+  "fast" (default)  XLA:CPU with LLVM's optimisation level 0. Measured on the 2-core CPU VM
+                    (experiments/benchmarks/bench_compile.py, BENCHMARKS.md "Cold start"):
+                    the Newton-KKT transfer of mei2010 (two-body, lgl(65)) compiles in 15 s
+                    instead of 17 s and solves in 0.12 s instead of 0.06 s; the KKT law
+                    compiles in 2.6 s instead of 4.4 s. Results agree to round-off. (XLA's
+                    classic loop emitters, xla_cpu_use_fusion_emitters=false, would halve
+                    the compile again, but executables compiled with them and loaded from
+                    disk failed in jaxlib 0.10: "Function and_and_fusion not found".)
   "optimized"       XLA's defaults: for a script that calls `solve` thousands of times one by
                     one (batches under jax.vmap inside the user's jax.jit get the user's
                     options in any case).
@@ -44,13 +46,15 @@ import os
 import pickle
 import platform
 import tempfile
+import time
+import types
 import warnings
 from pathlib import Path
 
 import jax
 
 PROFILES = {
-    "fast": {"xla_backend_optimization_level": 0, "xla_cpu_use_fusion_emitters": False},
+    "fast": {"xla_backend_optimization_level": 0},
     "optimized": {},
 }
 _PACKAGES = ("jax", "jaxlib", "numpy", "jaxopt", "diffrax", "equinox", "lineax", "optimistix")
@@ -59,6 +63,13 @@ _FORMAT = 1   # bump when the entry's layout changes
 
 _profile = os.environ.get("JAXLPM_COMPILE", "fast")
 _memory: dict = {}
+
+events: list = []
+"""One dict per executable this process compiled (name, source "compiled", profile, trace_s,
+lower_s, compile_s, and hlo_lines, the lowered StableHLO's size, when `record_hlo`) or loaded
+from disk (name, source "disk", load_s): what a first run spent its time on
+(experiments/benchmarks/bench_compile.py reads it)."""
+record_hlo = False
 
 
 def set_profile(name: str) -> None:
@@ -133,6 +144,9 @@ class Compiled:
     def __init__(self, fun, static_argnames=()):
         self.fun = fun
         self.name = f"{fun.__module__}.{fun.__qualname__}"
+        # on disk only under a name that is unique: a module-level function (lambdas and
+        # local functions can share a qualified name)
+        self.on_disk = isinstance(fun, types.FunctionType) and "<" not in fun.__qualname__
         static = (static_argnames,) if isinstance(static_argnames, str) else static_argnames
         self.static = tuple(static)
         self.signature = inspect.signature(fun)
@@ -155,19 +169,33 @@ class Compiled:
         leaves, tree = jax.tree_util.tree_flatten(dynamic)
         if jax.config.jax_disable_jit or any(isinstance(x, jax.core.Tracer) for x in leaves):
             return self.jit(dynamic, static)
-        key = (self.name, tree, tuple(_aval(x) for x in leaves), static, profile())
+        key = (self.name, tree, tuple(_aval(x) for x in leaves), static,
+               tuple(sorted(compiler_options().items())))
         executable = _memory.get(key)
         if executable is None:
             executable = _memory[key] = self._load_or_compile(key, dynamic, static)
         return executable(dynamic)
 
     def _load_or_compile(self, key, dynamic, static):
-        path = _entry(key)
+        path = _entry(key) if self.on_disk else None
+        t0 = time.perf_counter()
         if path is not None and path.exists():
             executable = _load(path)
             if executable is not None:
+                events.append(dict(name=self.name, source="disk",
+                                   load_s=time.perf_counter() - t0))
                 return executable
-        executable = self.jit.lower(dynamic, static).compile(compiler_options())
+        traced = self.jit.trace(dynamic, static)
+        t1 = time.perf_counter()
+        lowered = traced.lower()
+        t2 = time.perf_counter()
+        executable = lowered.compile(compiler_options())
+        t3 = time.perf_counter()
+        event = dict(name=self.name, source="compiled", profile=profile(), trace_s=t1 - t0,
+                     lower_s=t2 - t1, compile_s=t3 - t2)
+        if record_hlo:
+            event["hlo_lines"] = lowered.as_text().count("\n")
+        events.append(event)
         if path is not None:
             _store(path, executable)
         return executable

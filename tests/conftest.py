@@ -1,10 +1,9 @@
 """Test session set-up: float64 everywhere, a persistent compilation cache shared with the
-subprocess tests, and XLA's CPU backend at LLVM optimisation level 0: compile time dominates
-this suite, and level 0 cut tests/test_lq.py from 152 s to 120 s cold on the 2-core VM (the
-Newton two-body compile at lgl(9): 22 s to 21 s; its cost changed in the 16th digit). The
-whole suite passed at level 0 (453 tests). A level set in XLA_FLAGS is kept. The pytest-xdist
-workers (pyproject's addopts) share the persistent cache; JAX treats an entry it cannot read
-(one being written by another worker) as a miss and compiles."""
+subprocess tests (JAX's, and jaxlpm's executables under it: `jaxlpm.compilation`), and XLA's
+CPU backend at LLVM optimisation level 0 for the tests' own jitted functions too (jaxlpm's
+"fast" profile): compile time dominates this suite, and level 0 cut tests/test_lq.py from 152
+s to 120 s cold on the 2-core VM. A level set in XLA_FLAGS is kept. The pytest-xdist workers
+(pyproject's addopts) share the caches; an entry being written by another worker is a miss."""
 
 import os
 from pathlib import Path
@@ -38,6 +37,7 @@ def _release_compiled_programs():
     next compile crashed with a segmentation fault."""
     yield
     jax.clear_caches()
+    lpm.compilation.clear()
     gc.collect()
 
 

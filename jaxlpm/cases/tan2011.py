@@ -34,6 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compilation import compiled
 from .. import verify
 from ..collocation import lgl
 from ..constants import G0, J2_EARTH, MU_EARTH, R_EARTH
@@ -126,8 +127,8 @@ def verify_miss(r_burn, v_post, t_burn, samples=0):
                                                                  else None)
 
 
-_fly = jax.jit(fly)
-_fly_burn = jax.jit(fly_burn)
+_fly = compiled(fly)
+_fly_burn = compiled(fly_burn)
 
 
 def finite_burn_problem(prob: ImpulsiveIntercept) -> FiniteBurnIntercept:
@@ -220,7 +221,7 @@ def compute(log=print):
         f"{time.perf_counter() - t1:.1f} s")
 
     # step 1: every two-body Lambert candidate (the seed above is the least |dv|)
-    v1, revs, branch, status = jax.jit(lambert_candidates)(
+    v1, revs, branch, status = compiled(lambert_candidates)(
         jnp.asarray(rb), jnp.asarray(R_F), T_F - T_BURN, jnp.arange(MAX_REVS + 1),
         jnp.arange(2))
     cands = [{"revolutions": int(m), "branch": ["left", "right"][int(b)], "status": int(s),
@@ -228,7 +229,7 @@ def compute(log=print):
              for v, m, b, s in zip(v1, revs, branch, status)]
 
     # steps 2-5, as printed and with accumulated corrections
-    api = jax.jit(aim_point_iteration, static_argnums=(4, 5))
+    api = compiled(aim_point_iteration, static_argnames=("iterations", "accumulate"))
     dv_p, miss_p = api(prob, T_BURN, m_best, b_best, ROUGH_ITERATIONS, False)
     dv_a, miss_a = api(prob, T_BURN, m_best, b_best, ROUGH_ITERATIONS, True)
     miss_p, miss_a = np.linalg.norm(miss_p, axis=1), np.linalg.norm(miss_a, axis=1)
@@ -240,7 +241,7 @@ def compute(log=print):
     # of the J2-exact solution) with the same revolutions and branch
     t2 = time.perf_counter()
     ts = np.linspace(2000.0, 60000.0, 117)
-    states, _ = jax.jit(propagate)(prob.state0, ts[-1], ts=ts)
+    states, _ = compiled(propagate)(prob.state0, ts[-1], ts=ts)
 
     def _scan_one(state, t):
         sol = lambert(state[:3], prob.r_target, T_F - t, m_best, b_best)

@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import is_concrete
+from ..compilation import compiled
 from ..constants import G0
 from ..status import Status
 
@@ -168,34 +169,27 @@ class Solution:
                                  f"the start of the transfer), got {tt}")
         return t
 
-    def _evaluate(self, evaluate, t):
-        """evaluate(t) for scalar t in [0, duration], mapped over t of any shape; NaN outside
-        [0, duration] (traced t; a concrete t outside raises ValueError)."""
-        t = self._checked_time(t)
-        slack = TIME_SLACK * self.duration
-
-        def one(ti):
-            inside = (ti >= -slack) & (ti <= self.duration + slack)
-            value = evaluate(jnp.clip(ti, 0.0, self.duration))
-            return jnp.where(inside, value, jnp.nan)
-
-        flat = jax.vmap(one)(t.reshape(-1))
-        return flat.reshape(t.shape + flat.shape[1:])
+    def _evaluate(self, which, t):
+        """The trajectory's `which` ("state", "control", "costate") at t in [0, duration],
+        mapped over t of any shape; NaN outside [0, duration] (traced t; a concrete t outside
+        raises ValueError). Concrete input runs one compiled program (`_evaluated`), not
+        the interpolation op by op."""
+        return _evaluated(self, self._checked_time(t), which)
 
     def states(self, t):
         """States (m, m/s in `frame`) at times t (s since the start; any shape, the state
         axis last): the transcription's state polynomial (or the family's exact flow)."""
-        return self._evaluate(self.trajectory.state, t)
+        return self._evaluate("state", t)
 
     def controls(self, t):
         """Controls (m/s^2 in `frame`) at times t (s since the start; any shape)."""
-        return self._evaluate(self.trajectory.control, t)
+        return self._evaluate("control", t)
 
     def costates(self, t):
         """Costates at times t (s since the start): the sensitivity dJ*/dx of the optimal
         cost to the state at t, in the cost's SI unit per m and per m/s (each family says
         how it estimates them)."""
-        return self._evaluate(self.trajectory.costate, t)
+        return self._evaluate("costate", t)
 
     # ---- derived quantities ------------------------------------------------------------
 
@@ -208,6 +202,21 @@ class Solution:
         """Propellant mass (kg) for `delta_v` by the rocket equation m0 (1 - exp(-dv /
         (isp g0))): m0 the initial mass (kg), isp the specific impulse (s)."""
         return m0 * -jnp.expm1(-self.delta_v / (isp * G0))
+
+
+@compiled(static_argnames="which")
+def _evaluated(solution, t, which):
+    """`Solution._evaluate`: the trajectory's method `which` at every t (any shape)."""
+    evaluate = getattr(solution.trajectory, which)
+    slack = TIME_SLACK * solution.duration
+
+    def one(ti):
+        inside = (ti >= -slack) & (ti <= solution.duration + slack)
+        value = evaluate(jnp.clip(ti, 0.0, solution.duration))
+        return jnp.where(inside, value, jnp.nan)
+
+    flat = jax.vmap(one)(t.reshape(-1))
+    return flat.reshape(t.shape + flat.shape[1:])
 
 
 def zero_invalid(valid, tree):

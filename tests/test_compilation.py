@@ -1,0 +1,113 @@
+"""jaxlpm.compilation: the executable cache and the compile profiles (issue 21).
+
+The cache must give the same numbers as a fresh compile, skip tracing when it hits, survive
+an unreadable entry, stay out of the way under a user's jit/vmap, and be off when asked; the
+integrators must trace without host callbacks (a program with one cannot be cached)."""
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxlpm as lpm
+from jaxlpm import compilation
+from jaxlpm.cases import mei2010
+from jaxlpm.dynamics.propagation import COAST, solve_ode
+from jaxlpm.status import Status
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# One small law solve (lgl(9): its QR runs through LAPACK, which a loaded executable must
+# find bound) per process; with FORBID_TRACE the function the cache traces raises, so the
+# process can only succeed by loading the executable the first process wrote.
+SCRIPT = textwrap.dedent("""
+    import sys
+    import jax
+    jax.config.update("jax_enable_x64", True)
+    import jaxlpm as lpm
+    from jaxlpm.cases import mei2010
+    if sys.argv[1] == "forbid-trace":
+        def traced(*args, **kwargs):
+            raise AssertionError("traced although the executable is cached")
+        lpm.compilation.Compiled._adapter = traced
+    s = lpm.solve(mei2010.problem(), lpm.lgl(9), method="kkt", throw=False)
+    print(repr(float(s.cost)), int(s.status), repr(float(s.states(1000.0)[0])))
+""")
+
+
+def _run(cache, mode):
+    env = dict(os.environ, JAXLPM_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
+    out = subprocess.run([sys.executable, "-c", SCRIPT, mode], env=env, capture_output=True,
+                         text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return out.stdout.split()
+
+
+def test_executable_cached_across_processes(tmp_path):
+    first = _run(tmp_path, "compile")
+    files = list((tmp_path / "executables").glob("*.bin"))
+    assert files, "nothing was written to the executable cache"
+    second = _run(tmp_path, "forbid-trace")
+    assert second == first            # the same executable: bit-identical numbers
+
+
+def test_unreadable_entry_is_a_miss(tmp_path):
+    bad = tmp_path / "garbage.bin"
+    bad.write_bytes(b"not an executable")
+    assert compilation._load(bad) is None
+
+
+@pytest.fixture(scope="module")
+def law_problem():
+    return mei2010.problem()
+
+
+def test_traced_call_inlines_into_the_callers_program(law_problem):
+    grid = lpm.lgl(9)
+    concrete = lpm.solve(law_problem, grid, method="kkt", throw=False)
+    jitted = jax.jit(lambda p: lpm.solve(p, grid, method="kkt", throw=False).cost)(law_problem)
+    batch = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), law_problem)
+    mapped = jax.vmap(lambda p: lpm.solve(p, grid, method="kkt", throw=False).cost)(batch)
+    # the same law under XLA's default options instead of the fast profile: the same
+    # operations, reassociated by the optimiser at most (round-off of a 1e-4 cost)
+    np.testing.assert_allclose(jitted, concrete.cost, rtol=1e-11)
+    np.testing.assert_allclose(mapped, concrete.cost, rtol=1e-11)
+
+
+def test_cache_off_and_profiles(monkeypatch):
+    monkeypatch.setenv("JAXLPM_CACHE_DIR", "")
+    assert compilation.cache_dir() is None
+    monkeypatch.setenv("JAXLPM_CACHE_DIR", "/some/where")
+    assert compilation.cache_dir() == Path("/some/where") / "executables"
+    with pytest.raises(ValueError, match="profile must be one of"):
+        compilation.set_profile("turbo")
+    before = compilation.profile()
+    try:
+        compilation.set_profile("optimized")
+        assert compilation.compiler_options() == {}
+    finally:
+        compilation.set_profile(before)
+
+
+def test_integrators_trace_without_host_callbacks():
+    """equinox's runtime checks inside diffrax are traced as NaN, not as a host callback
+    (which would keep the flights and the J2 transfers out of every cache) ..."""
+    ts = jnp.linspace(0.0, 1.0, 5)
+    jaxpr = jax.make_jaxpr(lambda y0: solve_ode(lambda t, y: -y, y0, 0.0, 1.0,
+                                                diffrax.SaveAt(ts=ts), COAST))(jnp.ones(2))
+    assert "callback" not in str(jaxpr)
+
+
+def test_failed_runtime_check_is_a_status_not_an_exception():
+    """... and a check that fails (save times out of order) still fails: NONFINITE."""
+    ys, status = jax.jit(lambda ts: solve_ode(lambda t, y: -y, jnp.ones(2), 0.0, 1.0,
+                                              diffrax.SaveAt(ts=ts), COAST))(
+        jnp.array([0.0, 0.8, 0.4, 1.0]))
+    assert int(status) == Status.NONFINITE
