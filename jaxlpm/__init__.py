@@ -12,9 +12,10 @@ A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTr
 `FiniteBurnIntercept`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`: k
 segments; `segmented_lgr`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
 mesh refinement to the `Tolerance`; a solution that converged but misses it is INACCURATE),
-`verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `io` (save/load, CSV, CCSDS OEM),
-`lambert`, `Status`, `plot` (figures of solutions and studies; matplotlib is imported only
-when a figure is drawn).
+`verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `design` (mission parameters
+optimised under uncertainty by optax), `io` (save/load, CSV, CCSDS OEM), `lambert`, `Status`,
+`plot` (figures of solutions and studies; matplotlib is imported only when a figure is
+drawn).
 """
 
 from . import _cpu_runtime
@@ -40,7 +41,7 @@ from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # 
 from .solvers.lqr import hcw_lqr  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
 from .status import Status, describe  # noqa: E402
-from . import batch, compilation, io, nlp, plot, verify  # noqa: E402
+from . import batch, compilation, design, io, nlp, plot, verify  # noqa: E402
 
 __version__ = "0.2.0"
 """The package version."""
@@ -52,7 +53,8 @@ __all__ = [
     "ImpulsiveIntercept", "KeplerOrbit", "LQRTransfer", "LambertSolution",
     "MinimumTimeTransfer", "NewtonOptions", "OptimalControlProblem", "SegmentedMesh",
     "Solution", "SolveError", "Status", "__version__", "aligned_breaks", "batch", "burn_arcs",
-    "care", "compilation", "constants", "describe", "hcw_lqr", "indirect_fuel_optimal", "io", "lambert", "lg",
+    "care", "compilation", "constants", "describe", "design", "hcw_lqr",
+    "indirect_fuel_optimal", "io", "lambert", "lg",
     "lgl", "lgr", "make_grid", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lgr",
     "solve", "switching_function", "switching_times", "uniform_breaks", "verify",
 ]

@@ -17,21 +17,35 @@ arguments it runs an ahead-of-time compiled executable, found in this order:
    (atomically: parallel test workers share the folder; an unreadable entry is a miss).
 JAX's own persistent cache (`jax_compilation_cache_dir`) saves only XLA's compile step:
 tracing and lowering, 26 of a warm 38 s `jaxlpm reproduce mei2010` (issue 21), ran again
-every time. An executable loads in about 0.2 s.
+every time. An executable loads in about a second (bench_compile.py: the KKT law 0.7 s, the
+Newton-KKT transfer 1.3 s).
 
 Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
   "fast" (default)  XLA:CPU with LLVM's optimisation level 0. Measured on the 2-core CPU VM
                     (experiments/benchmarks/bench_compile.py, BENCHMARKS.md "Cold start"):
-                    the Newton-KKT transfer of mei2010 (two-body, lgl(65)) compiles in 15 s
-                    instead of 17 s and solves in 0.12 s instead of 0.06 s; the KKT law
-                    compiles in 2.6 s instead of 4.4 s. Results agree to round-off. (XLA's
-                    classic loop emitters, xla_cpu_use_fusion_emitters=false, would halve
-                    the compile again, but executables compiled with them and loaded from
-                    disk failed in jaxlib 0.10: "Function and_and_fusion not found".)
+                    the Newton-KKT transfer of mei2010 (two-body, lgl(65)) compiles in 22.5 s
+                    instead of 30.0 s and then solves in 0.26 s instead of 0.080 s; the KKT
+                    law compiles in 4.8 s instead of 6.8 s and runs in 53 ms instead of 11 ms.
+                    Results agree to round-off.
+                    (XLA's classic loop emitters, xla_cpu_use_fusion_emitters=false, halve
+                    the Newton-KKT compile again, but with them, as with XLA's default
+                    optimisation, some executables fail when loaded from disk in jaxlib
+                    0.10.2: "Function and_and_fusion not found" (the test suite's shared
+                    cache, 2026-12-04). Only level-0 executables are written to disk.)
   "optimized"       XLA's defaults: for a script that calls `solve` thousands of times one by
                     one (batches under jax.vmap inside the user's jax.jit get the user's
                     options in any case).
 On platforms other than CPU both profiles are XLA's defaults.
+
+`prefetch(run)` compiles concurrently what a run will need: it calls `run()` once as a dry
+run in which every compiled function is traced and lowered (on the calling thread: Python,
+the GIL) and handed to a pool of threads to compile (XLA releases the GIL), its call answered
+with zeros of the program's output shapes instead of being run; then it waits for the
+compiles. The real run that follows finds every program in memory. Tracing the next program
+overlaps the compiling of the last ones, and two compile at once on two cores. A dry run must
+not depend on the values it computes (a loop until convergence would not end on zeros): it
+is for fixed sequences of solves such as a reproduction's (`jaxlpm reproduce`); an exception
+in it ends the dry run early, and the real run compiles what is left as usual.
 
 The folder is JAXLPM_CACHE_DIR (default ~/.cache/jaxlpm/jax, the CLI's compilation cache);
 JAXLPM_CACHE_DIR="" turns the disk cache off. `clear()` empties the memory cache (the test
@@ -49,9 +63,11 @@ import tempfile
 import time
 import types
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import jax
+import jax.numpy as jnp
 
 PROFILES = {
     "fast": {"xla_backend_optimization_level": 0},
@@ -134,7 +150,11 @@ def _cpu_flags() -> str:
 
 
 def _aval(leaf):
-    return str(jax.typeof(leaf))
+    """A leaf's shape and dtype for the key. Weak types are left out: an executable runs on
+    a weakly or strongly typed leaf of its dtype alike, and a program's outputs come back
+    weak where it computed them from Python scalars, which a `prefetch` dry run (zeros of
+    the output shapes) cannot tell."""
+    return str(jax.typeof(leaf)).lstrip("~")
 
 
 class Compiled:
@@ -171,12 +191,15 @@ class Compiled:
             return self.jit(dynamic, static)
         key = (self.name, tree, tuple(_aval(x) for x in leaves), static,
                tuple(sorted(compiler_options().items())))
+        if _prefetching is not None:
+            return _prefetching.dry_call(self, key, dynamic, static)
         executable = _memory.get(key)
         if executable is None:
             executable = _memory[key] = self._load_or_compile(key, dynamic, static)
         return executable(dynamic)
 
-    def _load_or_compile(self, key, dynamic, static):
+    def _load(self, key):
+        """The executable from disk, or None; its load recorded in `events`."""
         path = _entry(key) if self.on_disk else None
         t0 = time.perf_counter()
         if path is not None and path.exists():
@@ -185,20 +208,96 @@ class Compiled:
                 events.append(dict(name=self.name, source="disk",
                                    load_s=time.perf_counter() - t0))
                 return executable
+        return None
+
+    def _lower(self, dynamic, static):
+        """(lowered program, event with its trace and lower times)."""
+        t0 = time.perf_counter()
         traced = self.jit.trace(dynamic, static)
         t1 = time.perf_counter()
         lowered = traced.lower()
         t2 = time.perf_counter()
-        executable = lowered.compile(compiler_options())
-        t3 = time.perf_counter()
         event = dict(name=self.name, source="compiled", profile=profile(), trace_s=t1 - t0,
-                     lower_s=t2 - t1, compile_s=t3 - t2)
+                     lower_s=t2 - t1)
         if record_hlo:
             event["hlo_lines"] = lowered.as_text().count("\n")
-        events.append(event)
-        if path is not None:
+        return lowered, event
+
+    def _compile(self, key, lowered, event):
+        """Compile (any thread), record the event, write the executable to disk."""
+        t0 = time.perf_counter()
+        executable = lowered.compile(compiler_options())
+        events.append(dict(event, compile_s=time.perf_counter() - t0))
+        path = _entry(key) if self.on_disk else None
+        # only level-0 executables go to disk: some compiled with XLA's default LLVM
+        # optimisation fail when loaded in jaxlib 0.10.2 ("Function or_and_fusion not found",
+        # the test suite's shared cache, 2026-12-04); "optimized" relies on JAX's own cache
+        if path is not None and profile() == "fast":
             _store(path, executable)
         return executable
+
+    def _load_or_compile(self, key, dynamic, static):
+        executable = self._load(key)
+        if executable is None:
+            executable = self._compile(key, *self._lower(dynamic, static))
+        return executable
+
+
+class _Prefetch:
+    """A `prefetch` dry run's state: the compiles submitted to the pool, by key."""
+
+    def __init__(self, workers, log):
+        self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="jaxlpm-compile")
+        self.pending, self.log = {}, log
+
+    def dry_call(self, fn, key, dynamic, static):
+        """Zeros of the program's outputs; the program loaded, or lowered and submitted."""
+        known = _memory.get(key)
+        if known is None and key not in self.pending:
+            known = fn._load(key)
+            if known is not None:
+                _memory[key] = known
+            else:
+                lowered, event = fn._lower(dynamic, static)
+                self.pending[key] = (fn, self.pool.submit(fn._compile, key, lowered, event),
+                                     lowered.out_info)
+                if self.log is not None:
+                    self.log(f"compiling {len(self.pending)}: {fn.name}")
+        info = known.out_info if known is not None else self.pending[key][2]
+        return jax.tree_util.tree_map(lambda a: jnp.zeros(a.shape, a.dtype), info)
+
+    def finish(self):
+        done = 0
+        for key, (fn, future, _) in self.pending.items():
+            _memory[key] = future.result()
+            done += 1
+            if self.log is not None:
+                self.log(f"compiled {done} of {len(self.pending)}: {fn.name}")
+        self.pool.shutdown()
+
+
+_prefetching: _Prefetch | None = None
+
+
+def prefetch(run, log=None, workers: int = 2) -> int:
+    """Compile what `run()` needs, `workers` programs at a time, by a dry run (module
+    docstring); returns the number of programs compiled. log(str): a line per program
+    submitted and per program compiled. Not reentrant: inside a prefetch, runs `run` as is."""
+    global _prefetching
+    if _prefetching is not None:
+        run()
+        return 0
+    state = _prefetching = _Prefetch(workers, log)
+    try:
+        run()
+    except Exception as err:                            # noqa: BLE001 (the real run will tell)
+        if log is not None:
+            log(f"dry run stopped early ({type(err).__name__}: {err}); the rest compiles "
+                f"as it is reached")
+    finally:
+        _prefetching = None
+        state.finish()
+    return len(state.pending)
 
 
 def compiled(fun=None, *, static_argnames=()):

@@ -4,6 +4,7 @@
     controls(solution, ax=None)                    u_x, u_y, u_z and |u| against time
     convergence(points, values, status=None)       a quantity against the number of points
     sweep_map(x, y, values, status)                a study's colour map, non-SUCCESS greyed
+    design_map(brute, results=())                  a design objective map, optimisers' paths
     histogram(values, status)                      a Monte Carlo column over its SUCCESS members
     save(figure, path)                             write a PNG (or any format) and close it
 
@@ -465,6 +466,43 @@ def sweep_map(x, y, values, status, ax=None, *, log: bool = False, cmap: str = "
         a.figure.colorbar(mappable, ax=a, label=colorbar_label)
     a.set(xlabel=xlabel, ylabel=ylabel)
     _legend_above(a, [handle], [_not_success_label(codes)], title)
+    return a
+
+
+def design_map(brute, results=(), ax=None, *, x=None, y=None, colorbar_label="objective",
+               xlabel=None, ylabel=None, title=None):
+    """Draw a design objective over two design parameters (`jaxlpm.design.brute_force`'s
+    grid, cells without a SUCCESS member grey) with optimisers' paths on it (one
+    `jaxlpm.design.optimise` result or a list: start, iterates, last iterate each) and the
+    grid's least cell; return the Axes. x, y: the two names (default: the grid's two
+    axes). Units are the design's (say them in the labels)."""
+    names = list(brute.axes)
+    x, y = x or names[0], y or names[1]
+    if {x, y} != set(names) or len(names) != 2:
+        raise ValueError(f"design_map draws a grid of two parameters as (x, y); the grid has "
+                         f"{names}, asked for ({x!r}, {y!r})")
+    gx, gy = np.meshgrid(brute.axes[names[0]], brute.axes[names[1]], indexing="ij")
+    cols = {names[0]: gx, names[1]: gy}
+    status = np.where(brute.success > 0, Status.SUCCESS, Status.MAX_ITERATIONS)
+    a = sweep_map(cols[x], cols[y], brute.objective, status, ax=ax, cmap="viridis",
+                  colorbar_label=colorbar_label, xlabel=xlabel or x, ylabel=ylabel or y,
+                  title=title)
+    best = brute.argmin
+    a.plot(best[x], best[y], "*", ms=16, color="white", mec="black", label="grid's least cell")
+    results = [results] if hasattr(results, "history") else list(results)
+    for k, result in enumerate(results):
+        path = {n: np.array([h["theta"][n] for h in result.history]
+                            + [float(np.asarray(result.theta[n]))]) for n in (x, y)}
+        # a periodic parameter's wrap (a jump over half its axis) is not drawn across the map
+        jump = np.zeros(path[x].size - 1, bool)
+        for n in (x, y):
+            jump |= np.abs(np.diff(path[n])) > 0.5 * np.ptp(brute.axes[n])
+        line = {n: np.insert(path[n], np.flatnonzero(jump) + 1, np.nan) for n in (x, y)}
+        labels = ("optimiser's path", "start", "last iterate") if k == 0 else (None,) * 3
+        a.plot(line[x], line[y], ".-", color="red", ms=4, lw=1, label=labels[0])
+        a.plot(path[x][0], path[y][0], "o", color="red", mec="black", ms=7, label=labels[1])
+        a.plot(path[x][-1], path[y][-1], "D", color="red", mec="black", ms=7, label=labels[2])
+    a.legend(fontsize=8, loc="lower right", framealpha=0.8)
     return a
 
 

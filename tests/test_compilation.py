@@ -111,3 +111,47 @@ def test_failed_runtime_check_is_a_status_not_an_exception():
                                               diffrax.SaveAt(ts=ts), COAST))(
         jnp.array([0.0, 0.8, 0.4, 1.0]))
     assert int(status) == Status.NONFINITE
+
+
+@compilation.compiled
+def _scaled_sum(x, y):
+    return jnp.sum(x) * y, x * 2.0
+
+
+def test_prefetch_compiles_what_the_run_needs(monkeypatch):
+    """A dry run compiles every program the run will call (three shapes; each second call,
+    on outputs of the first, has its signature: weak and strong types are one key),
+    concurrently; the real run then compiles
+    nothing and gives the numbers of an uncached run. A dry run that fails on its zeros ends
+    early and the real run compiles the rest."""
+    monkeypatch.setenv("JAXLPM_CACHE_DIR", "")            # memory only: nothing from disk
+
+    def run():
+        out = []
+        for n in (3, 4, 5):
+            total, doubled = _scaled_sum(jnp.arange(float(n)), 2.0)
+            out.append(_scaled_sum(doubled, total)[0])
+        return out
+
+    compilation.clear()
+    expected = [float(v) for v in run()]
+    compilation.clear()
+    lines = []
+    assert compilation.prefetch(run, lines.append) == 3
+    assert sum(line.startswith("compiled ") for line in lines) == 3
+    before = len(compilation.events)
+    assert [float(v) for v in run()] == expected
+    assert len(compilation.events) == before                 # nothing compiled or loaded
+
+    def fails_on_zeros():
+        total, _ = _scaled_sum(jnp.arange(3.0), 2.0)
+        if float(total) == 0.0:                               # a value the dry run lacks
+            raise RuntimeError("zero")
+        _scaled_sum(jnp.arange(7.0), 1.0)
+
+    compilation.clear()
+    lines = []
+    assert compilation.prefetch(fails_on_zeros, lines.append) == 1
+    assert any("stopped early" in line for line in lines)
+    fails_on_zeros()                                         # compiles the second program
+    compilation.clear()

@@ -84,3 +84,20 @@ def test_monte_carlo_j2(tmp_path):
     assert np.all(np.isin(t["status"], [lpm.Status.SUCCESS, lpm.Status.INACCURATE]))
     assert np.all(t["delta_v"] ** 2 <= 2.0 * t["cost"] * t["duration"])
     assert np.all(t["delta_v"] > 0.0)
+
+
+def test_design_under_uncertainty(tmp_path):
+    """2 samples, 2 Adam steps from each of the 4 starts and a 3 x 3 brute force on lgl(129)
+    (129 points resolve every duration of the box: all SUCCESS). The solve counts are the
+    ones the tutorial compares (4 x 2 x 2 against 3 x 3 x 2); a second call resumes every
+    run from its folder and gives the same histories; the map is written."""
+    example = load("design_under_uncertainty")
+    runs, best, brute = example.main(samples=2, steps=2, cells=3, points=129, out=tmp_path)
+    assert is_png(tmp_path / "design_map.png")
+    assert [len(r.history) for r in runs] == [2, 2, 2, 2]
+    assert all(h["success"] == 2 for r in runs for h in r.history)
+    assert sum(r.solves for r in runs) == 16 and brute.solves == 18
+    assert np.all(brute.success == 2) and np.all(np.isfinite(brute.objective))
+    assert best.history[-1]["objective"] == min(r.history[-1]["objective"] for r in runs)
+    again, _, _ = example.main(samples=2, steps=2, cells=3, points=129, out=tmp_path)
+    assert [r.history for r in again] == [r.history for r in runs]

@@ -23,6 +23,7 @@ BELOW_CASES = {"solvers", "verify", "problems", "solution", "nlp", "dynamics", "
 ALLOWED["batch"] = BELOW_CASES
 ALLOWED["io"] = BELOW_CASES
 ALLOWED["plot"] = BELOW_CASES
+ALLOWED["design"] = BELOW_CASES | {"batch"}
 ALLOWED["cases"] = set(ALLOWED) | {"batch"}
 
 

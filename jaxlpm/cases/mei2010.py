@@ -18,6 +18,7 @@ import numpy as np
 
 from .._validation import require_x64
 from ..collocation import lgl
+from ..compilation import prefetch
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
 from ..problems import MODELS, EnergyOptimalTransfer
@@ -342,7 +343,12 @@ def figures(head, lin, nonlin, transfers, computed, out_dir):
 
 
 def reproduce(out_dir, log=print):
-    """Run the case: compute, print, draw. Returns the JSON-ready result dict."""
+    """Run the case: compute (its programs compiled two at a time first, by a dry run:
+    `jaxlpm.compilation.prefetch`), print, draw. Returns the JSON-ready result dict."""
+    t = time.perf_counter()
+    n = prefetch(lambda: compute(log=lambda msg: None), log)
+    log(f"compiled or loaded the case's programs ({n} compiled) in "
+        f"{time.perf_counter() - t:.1f} s")
     _, head, lin, nonlin, transfers, computed = compute(log)
     report(computed, log)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -195,7 +195,11 @@ def _impulse(problem, t_burn):
 def optimise_burn_time(problem: ImpulsiveIntercept):
     """Minimise |dv(t_b)| on the window problem.burn_time = [t_lo, t_hi] (s) by the safeguarded
     secant method on the autodiff derivative g = d|dv|/dt_b (module docstring). Returns
-    (t_b, the shot there, g there, iterations, converged: the bracket below SEARCH_TOL)."""
+    (t_b, the shot there, g there, iterations, converged: the bracket below SEARCH_TOL).
+    Not an optax loop (issue 23): this is a 1-D root of g in a bracket, which the secant
+    closes superlinearly (tan2011: 10 steps from a 1000 s window to 1e-4 s) and never
+    leaves; a first-order optax optimiser needs a learning rate in seconds and converges
+    linearly, with no bracket to keep t_b inside the window."""
     grad = jax.value_and_grad(lambda t: _impulse(problem, t), has_aux=True)
     t_lo, t_hi = problem.burn_time[0], problem.burn_time[1]
 

@@ -52,7 +52,9 @@ def _warm_start(problem, ocp, grid):
     return jnp.where(singular, jnp.zeros_like(z0), z0), singular
 
 
-_sequential_warm_start = sequential_when_batched(_warm_start)
+linear_warm_start = sequential_when_batched(_warm_start)
+"""`_warm_start` run member by member under vmap (`sequential_when_batched`): (z0, singular)
+from (problem, ocp, grid)."""
 
 
 def separation_homotopy(ocp, t):
@@ -98,7 +100,7 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     if z0 is not None:
         z0, linear_singular = jax.lax.stop_gradient(z0), jnp.array(False)
     elif warm_start:       # an initial guess: not differentiated, member by member under vmap
-        z0, linear_singular = _sequential_warm_start(*jax.lax.stop_gradient((problem, ocp)),
+        z0, linear_singular = linear_warm_start(*jax.lax.stop_gradient((problem, ocp)),
                                                      grid)
     else:
         n_rows = state_tau(grid).shape[0]
