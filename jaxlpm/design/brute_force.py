@@ -18,9 +18,8 @@ from ..batch.family import SweepFamily, problem_table
 from ..batch.sweep import parameter_grid, sweep
 from ..solution import DEFAULT_TOLERANCE
 from ..solvers import solve
-from ..solvers.api import FAMILIES
 from ..status import Status
-from .optimise import QUANTITIES
+from .optimise import QUANTITIES, design_grid
 
 
 @dataclass
@@ -86,8 +85,7 @@ def brute_force(design, key, axes: dict, *, out=None, chunk_size: int = 256,
     flat = jax.tree_util.tree_map(lambda x: x.reshape((n_cells * members,) + x.shape[2:]),
                                   problems)
     one = jax.tree_util.tree_map(lambda x: x[0], flat)
-    grid = (design.grid if design.grid is not None
-            else FAMILIES[type(one)].default_grid(one))
+    grid = design_grid(design, one)
     params, build = problem_table(flat)
     definition = dict(design.definition({k: 0.0 for k in axes}, key, True),
                       axes={k: np.asarray(v).tolist() for k, v in axes.items()})

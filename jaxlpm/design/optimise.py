@@ -130,10 +130,6 @@ class DesignResult:
         """Member solves made (each with its implicit gradient)."""
         return int(sum(h["members"] for h in self.history))
 
-    @property
-    def best(self) -> dict:
-        """The step with the least objective (meaningful with common random numbers)."""
-        return min(self.history, key=lambda h: h["objective"])
 
 
 def _describe_grid(grid):
@@ -175,6 +171,14 @@ def _project(theta, lower, upper, periodic):
     def one(t, lo, hi, wrap):
         return lo + jnp.mod(t - lo, hi - lo) if wrap else jnp.clip(t, lo, hi)
     return jax.tree_util.tree_map(one, theta, lower, upper, periodic)
+
+
+def design_grid(design: DesignProblem, problem):
+    """The grid the design's members are solved on: its own, or the family's default for
+    one member `problem`."""
+    if design.grid is not None:
+        return design.grid
+    return FAMILIES[type(problem)].default_grid(problem)
 
 
 def _warm_starts_newton(problem, design, grid) -> bool:
@@ -278,7 +282,7 @@ def _setup(design: DesignProblem, theta, key) -> _Setup:
         raise ValueError(f"the dispersion must return a batched problem of a jaxlpm family, "
                          f"got {type(probe).__name__}")
     one = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape[1:], s.dtype), probe)
-    grid = design.grid if design.grid is not None else family.default_grid(one)
+    grid = design_grid(design, one)
     newton = _warm_starts_newton(one, design, grid)
     members = jax.tree_util.tree_leaves(probe)[0].shape[0]
     _STEPS[design] = _Setup(grid, newton, members, _step_function(design, newton, grid))
