@@ -9,7 +9,8 @@ jax.config.update("jax_enable_x64", True).
 
 A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTransfer`,
 `MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`, `ImpulsiveIntercept`,
-`FiniteBurnIntercept`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`: k
+`FiniteBurnIntercept`), optional safety constraints on an energy-optimal transfer
+(`KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `ThrustLimit`, `PassiveSafety`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`: k
 segments; `segmented_lgr`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
 mesh refinement to the `Tolerance`; a solution that converged but misses it is INACCURATE),
 `verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `design` (mission parameters
@@ -32,6 +33,8 @@ from .orbits.lambert import LambertSolution, lambert  # noqa: E402
 from .problems import (EnergyOptimalTransfer, FiniteBurnIntercept,  # noqa: E402
                        ImpulsiveIntercept, LQRTransfer, MinimumTimeTransfer)
 from .problems.fuel_optimal import FuelOptimalTransfer  # noqa: E402
+from .problems.safety import (ApproachCone, KeepOutEllipsoid, PassiveSafety,  # noqa: E402
+                              SpeedLimit, ThrustLimit)
 from .solution import DEFAULT_TOLERANCE, Solution, SolveError, Tolerance  # noqa: E402
 from .solvers import solve  # noqa: E402
 from .solvers.refine import DEFAULT_LADDER, MeshLadder  # noqa: E402
@@ -48,11 +51,12 @@ __version__ = "0.2.0"
 
 __all__ = [
     "DEFAULT_LADDER", "DEFAULT_TOLERANCE", "LGRMesh", "MeshLadder", "Tolerance", "lgr_mesh",
-    "ALOptions", "CareSolution", "EnergyOptimalTransfer", "FiniteBurnIntercept",
+    "ALOptions", "ApproachCone", "CareSolution", "EnergyOptimalTransfer", "FiniteBurnIntercept",
     "FiniteBurnOptions", "FuelOptimalTransfer", "Grid", "HomotopyOptions",
-    "ImpulsiveIntercept", "KeplerOrbit", "LQRTransfer", "LambertSolution",
-    "MinimumTimeTransfer", "NewtonOptions", "OptimalControlProblem", "SegmentedMesh",
-    "Solution", "SolveError", "Status", "__version__", "aligned_breaks", "batch", "burn_arcs",
+    "ImpulsiveIntercept", "KeepOutEllipsoid", "KeplerOrbit", "LQRTransfer", "LambertSolution",
+    "MinimumTimeTransfer", "NewtonOptions", "OptimalControlProblem", "PassiveSafety",
+    "SegmentedMesh",
+    "Solution", "SolveError", "SpeedLimit", "Status", "ThrustLimit", "__version__", "aligned_breaks", "batch", "burn_arcs",
     "care", "compilation", "constants", "describe", "design", "hcw_lqr",
     "indirect_fuel_optimal", "io", "lambert", "lg",
     "lgl", "lgr", "make_grid", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lgr",

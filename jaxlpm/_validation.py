@@ -55,10 +55,12 @@ def check_shape(name: str, value, shape: tuple) -> None:
 def coerce_sequences(obj) -> None:
     """In a frozen dataclass's __post_init__: turn its array fields given as Python lists or
     tuples into float64 arrays (a list would otherwise become a pytree of scalar leaves).
-    Static fields, arrays and tracers are left as they are."""
+    Static fields, fields marked metadata tree=True (a tuple of pytrees), arrays and tracers
+    are left as they are."""
     for f in dataclasses.fields(obj):
         value = getattr(obj, f.name)
-        if not f.metadata.get("static") and isinstance(value, (list, tuple)):
+        if (not f.metadata.get("static") and not f.metadata.get("tree")
+                and isinstance(value, (list, tuple))):
             try:
                 arr = np.asarray(value, dtype=np.float64)
             except (TypeError, ValueError) as err:
@@ -133,8 +135,12 @@ class Checked:
 
 
 def _field(obj, dotted: str):
+    """The value a rule's name points to: "orbit.e", "constraints[1].range"."""
     for part in dotted.split("."):
-        obj = getattr(obj, part, None)
+        name, _, index = part.partition("[")
+        obj = getattr(obj, name, None)
+        if index and isinstance(obj, (tuple, list)):
+            obj = obj[int(index.rstrip("]"))]
     return obj
 
 

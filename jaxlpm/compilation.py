@@ -31,7 +31,10 @@ Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
                     the Newton-KKT compile again, but with them, as with XLA's default
                     optimisation, some executables fail when loaded from disk in jaxlib
                     0.10.2: "Function and_and_fusion not found" (the test suite's shared
-                    cache, 2026-12-04). Only level-0 executables are written to disk.)
+                    cache, 2026-12-04). Only level-0 executables are written to disk, and
+                    since level-0 ones failed so too (tests/test_safety.py, 2026-12-05),
+                    the first call of an executable loaded from disk runs to the end and,
+                    on such an error, the program is compiled afresh.)
   "optimized"       XLA's defaults: for a script that calls `solve` thousands of times one by
                     one (batches under jax.vmap inside the user's jax.jit get the user's
                     options in any case).
@@ -79,6 +82,7 @@ _FORMAT = 1   # bump when the entry's layout changes
 
 _profile = os.environ.get("JAXLPM_COMPILE", "fast")
 _memory: dict = {}
+_from_disk: set = set()     # keys in _memory loaded from disk and not yet run (`prefetch`)
 
 events: list = []
 """One dict per executable this process compiled (name, source "compiled", profile, trace_s,
@@ -121,6 +125,7 @@ def cache_dir() -> Path | None:
 def clear() -> None:
     """Forget the executables held in memory (those on disk stay)."""
     _memory.clear()
+    _from_disk.clear()
 
 
 @functools.cache
@@ -194,8 +199,22 @@ class Compiled:
         if _prefetching is not None:
             return _prefetching.dry_call(self, key, dynamic, static)
         executable = _memory.get(key)
-        if executable is None:
-            executable = _memory[key] = self._load_or_compile(key, dynamic, static)
+        if executable is not None and key not in _from_disk:
+            return executable(dynamic)
+        executable = executable if executable is not None else self._load(key)
+        if executable is not None:
+            # an executable loaded from disk can fail when first run ("Function
+            # and_and_fusion not found", jaxlib 0.10.2, level-0 programs too): run it to
+            # the end once, and on such an error compile the program afresh (overwriting
+            # the entry)
+            _from_disk.discard(key)
+            try:
+                out = jax.block_until_ready(executable(dynamic))
+                _memory[key] = executable
+                return out
+            except jax.errors.JaxRuntimeError:
+                events.append(dict(name=self.name, source="disk", failed=True))
+        executable = _memory[key] = self._compile(key, *self._lower(dynamic, static))
         return executable(dynamic)
 
     def _load(self, key):
@@ -236,12 +255,6 @@ class Compiled:
             _store(path, executable)
         return executable
 
-    def _load_or_compile(self, key, dynamic, static):
-        executable = self._load(key)
-        if executable is None:
-            executable = self._compile(key, *self._lower(dynamic, static))
-        return executable
-
 
 class _Prefetch:
     """A `prefetch` dry run's state: the compiles submitted to the pool, by key."""
@@ -257,6 +270,7 @@ class _Prefetch:
             known = fn._load(key)
             if known is not None:
                 _memory[key] = known
+                _from_disk.add(key)             # its first real call checks it
             else:
                 lowered, event = fn._lower(dynamic, static)
                 self.pending[key] = (fn, self.pool.submit(fn._compile, key, lowered, event),

@@ -52,8 +52,10 @@ _MESSAGES = {
     ),
     Status.INACCURATE: (
         "converged on its grid, but the grid does not resolve the transfer: the error estimate "
-        "between the nodes (stats['error_position'] m, stats['error_velocity'] m/s) exceeds "
-        "the tolerance; solve without a grid (mesh refinement) or on a finer one"
+        "between the nodes (stats['error_position'] m, stats['error_velocity'] m/s, or a path "
+        "or safety constraint's violation: stats['path_violation'], "
+        "stats['constraint_violation']) exceeds the tolerance; solve without a grid (mesh "
+        "refinement) or on a finer one"
     ),
     Status.INFEASIBLE: (
         "locally infeasible: the constraint violation stopped decreasing with the penalty at "

@@ -34,6 +34,14 @@ n = the chief's mean motion.
              J_SI = L^2 n^3 J.
 A removed thrust axis (`thrust_axes`) multiplies its control by 0 in the dynamics; the cost then
 drives that component to exactly 0.
+
+Safety constraints (`constraints`, `jaxlpm.problems.safety`: keep-out ellipsoid, approach cone,
+speed limit, thrust bound, passive abort safety; SI, LVLH) become the problem's path
+inequalities g <= 0 at the collocation points (`SafetyPath`: the scaled state and control mapped
+back to SI, then each constraint's own nondimensional g), solved by the augmented Lagrangian;
+the node data then carries the time of every point and the passive-safety drift maps beside
+the model's own data. The solution checks every constraint densely between the nodes, in SI
+(`safety_stats`).
 """
 
 from dataclasses import dataclass, field, replace
@@ -51,10 +59,11 @@ from ..dynamics.chief import (anomaly_rate, j2_chief, j2_final_anomaly, kepler_c
 from ..nlp.accuracy import check_flight, check_mesh, collocation_defects
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import (collocated_rows, collocation_s, costates, objective,
-                                 state_s, state_tau, unpack)
+                                 state_s, state_tau, support_rows, unpack)
 from ..orbits import KeplerOrbit, lvlh_to_th, th_to_lvlh
 from ..solution import Collocated, Solution
 from ..solution.accuracy import accuracy_stats
+from . import safety
 from .scaling import length_scale
 
 MODELS = ("linear", "two-body", "j2")
@@ -73,6 +82,10 @@ class EnergyOptimalTransfer(Checked):
     thrust_axes  which LVLH thrust channels exist (static; default all three)
     model        "linear" (Tschauner-Hempel), "two-body" or "j2" (static; module docstring)
     j2, r_eq     the J2 coefficient and equatorial radius (m) of the "j2" model
+    constraints  safety constraints in SI (LVLH about the target; `jaxlpm.problems.safety`:
+                 `KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `ThrustLimit`,
+                 `PassiveSafety`), a tuple (default none); with any, the method is
+                 "augmented-lagrangian"
     The control u is the thrust acceleration in LVLH axes (m/s^2).
     """
 
@@ -84,11 +97,14 @@ class EnergyOptimalTransfer(Checked):
     model: str = field(default="linear", metadata=dict(static=True))
     j2: jax.Array = J2_EARTH
     r_eq: jax.Array = R_EARTH
+    constraints: tuple = field(default=(), metadata=dict(tree=True))
 
     SHAPES = {"x0": (6,), "xf": (6,), "duration": (), "j2": (), "r_eq": ()}
 
     def __post_init__(self):
         coerce_sequences(self)
+        if isinstance(self.constraints, list):
+            object.__setattr__(self, "constraints", tuple(self.constraints))
         axes = self.thrust_axes
         if (isinstance(axes, (tuple, list, np.ndarray)) and np.ndim(axes) == 1
                 and all(isinstance(a, (bool, np.bool_)) for a in axes)):
@@ -97,11 +113,12 @@ class EnergyOptimalTransfer(Checked):
 
     @classmethod
     def from_revolutions(cls, orbit, x0, xf, revolutions, thrust_axes=(True, True, True),
-                         model="linear"):
+                         model="linear", constraints=()):
         """Transfer lasting `revolutions` chief orbital periods (duration = revolutions * 2 pi/n)."""
         if is_concrete(orbit):
             orbit.validate()           # the period needs a > 0 and mu > 0
-        return cls(orbit, x0, xf, revolutions * orbit.period, thrust_axes, model)
+        return cls(orbit, x0, xf, revolutions * orbit.period, thrust_axes, model,
+                   constraints=constraints)
 
     def replace(self, **kwargs) -> "EnergyOptimalTransfer":
         return replace(self, **kwargs)
@@ -124,7 +141,7 @@ class EnergyOptimalTransfer(Checked):
             rules.append(Rule("orbit", perigee_above_surface(o.a, o.e, self.r_eq),
                               f"an orbit whose perigee a (1 - e) is above r_eq on the "
                               f"{self.model!r} model"))
-        return rules
+        return rules + safety.constraint_rules(self.constraints)
 
     def static_rules(self) -> None:
         """Model and thrust axes, then the fields' shapes (`Checked.static_rules`)."""
@@ -133,13 +150,16 @@ class EnergyOptimalTransfer(Checked):
         axes = self.thrust_axes
         if len(axes) != 3 or not all(isinstance(a, (bool, np.bool_)) for a in axes):
             raise ValueError(f"thrust_axes must be three booleans (x, y, z), got {axes!r}")
+        for c in safety.check_constraints(self.constraints):
+            c.static_rules()
         super().static_rules()
 
     def harmless(self) -> "EnergyOptimalTransfer":
         """A valid transfer of the same model and thrust axes (1 m radial offset to the
         origin in 1000 s about a circular orbit), for invalid members of a batch."""
         return self.replace(orbit=self.orbit.harmless(), x0=jnp.array([1.0, 0, 0, 0, 0, 0]),
-                            xf=jnp.zeros(6), duration=1000.0, j2=0.0, r_eq=R_EARTH)
+                            xf=jnp.zeros(6), duration=1000.0, j2=0.0, r_eq=R_EARTH,
+                            constraints=tuple(c.harmless() for c in self.constraints))
 
 
 def perigee_above_surface(a, e, r_eq=R_EARTH):
@@ -206,18 +226,29 @@ def model_state(problem: EnergyOptimalTransfer, x_lvlh, s):
     return x_lvlh / jnp.concatenate([jnp.full(3, L), jnp.full(3, L * o.mean_motion)])
 
 
+def _unscaled_state(model, x, s, e, k2, n, length):
+    """The solver's state x at anomaly s -> LVLH (m, m/s); `lvlh_state` in numbers."""
+    if model == "linear":
+        return th_to_lvlh(x * length, s, e, k2)
+    return x * jnp.concatenate([jnp.full(3, length), jnp.full(3, length * n)])
+
+
+def _control_unit(model, k2, n, length):
+    """u (m/s^2) per unit of the solver's control; `control_scale` in numbers."""
+    return length * (k2**2 if model == "linear" else n**2)
+
+
 def lvlh_state(problem: EnergyOptimalTransfer, x, s):
     """Inverse of `model_state`."""
-    o, L = problem.orbit, length_scale(problem)
-    if problem.model == "linear":
-        return th_to_lvlh(x * L, s, o.e, o.k2)
-    return x * jnp.concatenate([jnp.full(3, L), jnp.full(3, L * o.mean_motion)])
+    o = problem.orbit
+    return _unscaled_state(problem.model, x, s, o.e, o.k2, o.mean_motion,
+                           length_scale(problem))
 
 
 def control_scale(problem: EnergyOptimalTransfer):
     """u (m/s^2) = control_scale * the solver's control."""
-    o, L = problem.orbit, length_scale(problem)
-    return L * (o.k2**2 if problem.model == "linear" else o.mean_motion**2)
+    o = problem.orbit
+    return _control_unit(problem.model, o.k2, o.mean_motion, length_scale(problem))
 
 
 def cost_scale(problem: EnergyOptimalTransfer):
@@ -251,7 +282,48 @@ def transfer_ocp(problem: EnergyOptimalTransfer, grid):
     ocp = OptimalControlProblem(
         n_x=6, n_u=3, dynamics=dynamics, running_cost=cost, boundary=_fixed_ends,
         s0=o.f0 + 0.0 * s_f, sf=s_f, params=params, node_data=data)
+    if problem.constraints:
+        ocp = _with_safety(problem, ocp, chief.t[collocated_rows(grid)])
     return ocp, chief, ok_f & ok_c
+
+
+@dataclass(frozen=True)
+class OnModelData:
+    """A model's dynamics or running cost on node data (model data, safety data): hashable,
+    so that equal wrappers key one compiled solver."""
+
+    fn: object
+
+    def __call__(self, s, x, u, data, p):
+        return self.fn(s, x, u, data[0], p)
+
+
+@dataclass(frozen=True)
+class SafetyPath:
+    """The path inequalities g(s, x, u, data, p) <= 0 of the problem's safety constraints
+    (`jaxlpm.problems.safety.path_values`) on the solver's state and control of `model`."""
+
+    model: str
+
+    def __call__(self, s, x, u, data, p):
+        x_si = _unscaled_state(self.model, x, s, p["e"], p["k2"], p["n"], p["length"])
+        u_si = p["axes"] * u * _control_unit(self.model, p["k2"], p["n"], p["length"])
+        point = data[1]
+        return safety.path_values(p["constraints"], x_si, u_si, point["t"], point["pad"],
+                                  point["drift"], p["length"])
+
+
+def _with_safety(problem: EnergyOptimalTransfer, ocp, t):
+    """`ocp` with the problem's safety constraints as path inequalities (`SafetyPath`); t:
+    the times of its collocation points (s since the start)."""
+    o = problem.orbit
+    params = {**ocp.params, "constraints": problem.constraints, "k2": o.k2,
+              "n": o.mean_motion, "length": length_scale(problem)}
+    data = (ocp.node_data, {"t": t, "pad": safety.node_pad(t),
+                            "drift": safety.node_drift(problem.constraints, o, t)})
+    return ocp.replace(dynamics=OnModelData(ocp.dynamics),
+                       running_cost=OnModelData(ocp.running_cost),
+                       path=SafetyPath(problem.model), params=params, node_data=data)
 
 
 def scaled_rows(solution):
@@ -269,16 +341,59 @@ def collocation_accuracy(problem: EnergyOptimalTransfer, grid, X, U):
     check mesh, whose chief is sampled at the check points, the errors mapped to LVLH
     (`lvlh_state` is linear in the state at a given anomaly)."""
     check = check_mesh(grid)
-    ocp_check, _, _ = transfer_ocp(problem, check)
+    ocp_check, chief_check, _ = transfer_ocp(problem, check)
     d = collocation_defects(ocp_check, check, grid, X, U)
     # the linear model's flight is linear: one Newton step solves it
     flown = check_flight(ocp_check, check, grid, X, U,
                          newton_steps=1 if problem.model == "linear" else 4)
     to_si = jax.vmap(jax.vmap(lambda x, s: lvlh_state(problem, x, s)))
-    return accuracy_stats(to_si(flown - d.states, d.s), d.relative)
+    stats = accuracy_stats(to_si(flown - d.states, d.s), d.relative)
+    if problem.constraints:
+        stats.update(safety_stats(problem, grid, X, U, state_tau(check),
+                                  state_s(ocp_check, check), chief_check.t))
+    return stats
 
 
-def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status, valid):
+def safety_stats(problem: EnergyOptimalTransfer, grid, X, U, tau, s, t):
+    """The safety constraints checked densely between the nodes, in SI: the state polynomial
+    and control interpolant of the solution (scaled state rows X, controls U on `grid`) at
+    the points tau (grid coordinate; anomalies s, times t: the check mesh's state rows), the
+    passive-safety drift sampled `safety.CHECK_DRIFT_FACTOR` times as densely as the solver
+    samples it.
+
+    constraint_violation  (n_c,) each constraint's largest violation (its unit: m, m/s or
+                          m/s^2; 0 where it holds everywhere)
+    violation_position    the largest of those in m (keep-out, cone, passive safety)
+    violation_velocity    the largest in m/s (speed limits)
+    path_violation        the delta-v beyond the thrust limits, int max(|u| - u_max, 0) dt
+                          (m/s, the trapezoidal rule on the points; the fuel-optimal
+                          family's measure)
+    """
+    cons = problem.constraints
+    Xc = jax.vmap(lambda tk: grid.interpolate_state(X[support_rows(grid)], tk))(tau)
+    Uc = jax.vmap(lambda tk: grid.interpolate_control(U, tk))(tau)
+    x_si = jax.vmap(lambda x, sk: lvlh_state(problem, x, sk))(Xc, s)
+    u_si = Uc * jnp.asarray(problem.thrust_axes, X.dtype) * control_scale(problem)
+    drift = safety.node_drift(cons, problem.orbit, t, safety.CHECK_DRIFT_FACTOR)
+    v = jax.vmap(safety.violations, in_axes=(None, 0, 0, 0, 0))(cons, x_si, u_si, t, drift)
+    worst = jnp.maximum(jnp.max(v, axis=0), 0.0)
+
+    def largest(kinds, values):
+        picked = [values[i] for i, c in enumerate(cons) if isinstance(c, kinds)]
+        return jnp.max(jnp.stack(picked)) if picked else jnp.zeros((), X.dtype)
+
+    excess = jnp.maximum(v, 0.0)
+    dv = [jnp.sum(0.5 * jnp.diff(t) * (excess[1:, i] + excess[:-1, i]))
+          for i, c in enumerate(cons) if isinstance(c, safety.ThrustLimit)]
+    return dict(constraint_violation=worst,
+                violation_position=largest((safety.KeepOutEllipsoid, safety.ApproachCone,
+                                            safety.PassiveSafety), worst),
+                violation_velocity=largest(safety.SpeedLimit, worst),
+                path_violation=jnp.max(jnp.stack(dv)) if dv else jnp.zeros((), X.dtype))
+
+
+def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status, valid,
+                method="newton", extra=None):
     """The `Solution` (SI, LVLH) of the transcribed transfer solved to `result` (an
     `NLPResult` of `transfer_ocp(problem, grid)`, whose chief samples are `chief`): states
     and controls unscaled, the cost 1/2 int |u|^2 dt, costates dJ/dx = cost_scale
@@ -286,7 +401,8 @@ def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status
 
     stats: node_s, state_s (anomalies of the collocation points and state rows, rad),
     cost_true_anomaly (k^2 cost, m^2/s^4), costates_scaled (dJ~/dx~), multipliers,
-    constraint_residual, stationarity_residual (scaled units), iterations, history."""
+    constraint_residual, stationarity_residual (scaled units), iterations, history; `extra`
+    (a dict) is added to them as it is (the augmented Lagrangian's own numbers)."""
     def keep(x):
         return jnp.where(valid, x, jnp.zeros_like(x))
 
@@ -315,5 +431,5 @@ def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status
                    constraint_residual=keep(result.constraint_residual),
                    stationarity_residual=keep(result.stationarity_residual),
                    iterations=result.iterations, history=keep(result.history),
-                   **collocation_accuracy(problem, grid, X, U)),
-        method="newton")
+                   **collocation_accuracy(problem, grid, X, U), **(extra or {})),
+        method=method)

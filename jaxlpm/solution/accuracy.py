@@ -15,7 +15,14 @@ LQR sweep and the intercepts in their solvers' modules) and reports it in `Solut
   segment_error   (K,)   each segment's relative error (one for a single grid)
   path_violation  the largest violation of a path constraint between the nodes, in the
                   family's unit (0: none); fuel-optimal: the delta-v beyond the thrust
-                  bound, int max(|u| - u_max, 0) dt (m/s)
+                  bound, int max(|u| - u_max, 0) dt (m/s), and the same for an
+                  energy-optimal transfer's `ThrustLimit`
+
+With safety constraints (`jaxlpm.problems.safety`) an energy-optimal solution also reports,
+from the same dense check, `constraint_violation` (each constraint's largest violation in its
+SI unit), `violation_position` (m: keep-out, approach cone, passive safety) and
+`violation_velocity` (m/s: speed limits), judged against the position and velocity
+tolerances.
 
 `Tolerance` is what `jaxlpm.solve` accepts: a converged solution whose estimate exceeds it is
 `Status.INACCURATE` (`judge`). The default (0.1 m, 1e-4 m/s) is a tenth of the goal that a
@@ -40,7 +47,9 @@ class Tolerance:
     between the nodes (`stats["error_position"]`, `stats["error_velocity"]`), and the largest
     path-constraint violation between the nodes (`stats["path_violation"]`, in the family's
     unit: for the fuel-optimal thrust bound the delta-v beyond it, m/s, so the default is
-    the velocity tolerance; ignored by families without path constraints)."""
+    the velocity tolerance; the same for an energy-optimal `ThrustLimit`; ignored by families without path constraints). Safety constraints in m (keep-out,
+    approach cone, passive safety) are judged against `position`, speed limits against
+    `velocity`."""
 
     position: float = 0.1
     velocity: float = 1e-4
@@ -73,10 +82,13 @@ def accuracy_stats(errors_si, relative, path=None):
 
 def inaccurate(stats, tolerance: Tolerance):
     """True where the estimate in `stats` exceeds `tolerance` (or is not finite)."""
-    checks = [stats["error_position"] <= tolerance.position,
-              stats["error_velocity"] <= tolerance.velocity,
-              stats["path_violation"] <= tolerance.path]
-    return ~(checks[0] & checks[1] & checks[2])
+    ok = ((stats["error_position"] <= tolerance.position)
+          & (stats["error_velocity"] <= tolerance.velocity)
+          & (stats["path_violation"] <= tolerance.path))
+    if "violation_position" in stats:          # safety constraints (module docstring)
+        ok = (ok & (stats["violation_position"] <= tolerance.position)
+              & (stats["violation_velocity"] <= tolerance.velocity))
+    return ~ok
 
 
 def judge(solution, tolerance: Tolerance):

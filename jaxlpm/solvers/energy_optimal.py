@@ -3,9 +3,11 @@
 "kkt" (Mei 2010 §3.2, collocated state equations) and "stm" (§3.1, Gramian of the
 Yamanaka-Ankersen STM) are the closed-form laws of the linear (Tschauner-Hempel) model on LGL
 grids (`jaxlpm.solvers.lq`); "newton" is the Newton-KKT solver of the NLP engine on any model
-("linear", "two-body", "j2") and grid (LGL, LG, LGR) (`jaxlpm.solvers.transfer`). Each is
-jit-compiled once per (method, grid, options). Default: "kkt" for the linear model on an LGL
-grid, "newton" otherwise; default grid lgl(65) (Mei 2010's N = 64).
+("linear", "two-body", "j2") and grid (LGL, LG, LGR) (`jaxlpm.solvers.transfer`); "augmented-lagrangian" the same Newton-KKT
+iterations inside the augmented Lagrangian, for transfers with safety constraints
+(`jaxlpm.problems.safety`), the only method they take. Each is jit-compiled once per (method,
+grid, options). Default: "augmented-lagrangian" with constraints, else "kkt" for the linear
+model on an LGL grid, "newton" otherwise; default grid lgl(65) (Mei 2010's N = 64).
 
 `Solution.stats`: node_f / node_s (the independent variable at the collocation points, rad),
 cost_true_anomaly (k^2 cost, m^2/s^4: Mei 2010 eq. 8's normalisation), multipliers,
@@ -13,7 +15,9 @@ constraint_residual, stationarity_residual, the error estimate between the nodes
 (error_position m, error_velocity m/s, relative_error, segment_error, path_violation:
 `jaxlpm.solution.accuracy`), and per method: rcond, node_states_th, costates_th (the laws),
 iterations, history, costates_scaled (Newton-KKT), rung (the refinement rung, `solve` without
-a grid).
+a grid); with safety constraints also constraint_violation, violation_position,
+violation_velocity (the dense check in SI, `safety_stats`), outer_iterations, path_residual,
+complementarity and path_multipliers.
 
 `solve(problem)` without a grid, for a concrete problem, refines the mesh (`refine_transfer`:
 Newton-KKT on the `MeshLadder` of `LGRMesh` shapes until the estimate meets the tolerance);
@@ -28,6 +32,7 @@ import jax.numpy as jnp
 from ..compilation import compiled
 from ..collocation import Grid, lgl
 from ..collocation.segments import LGRMesh
+from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.newton import NewtonOptions
 from ..problems import EnergyOptimalTransfer
 from .family import FamilySolver
@@ -60,19 +65,23 @@ def _guess(solution, mesh):
     return jnp.concatenate([X.reshape(-1), U.reshape(-1)])
 
 
-def rung_options(options: NewtonOptions, segments: int) -> NewtonOptions:
+def rung_options(options, segments: int):
     """The options of a rung of K segments: the defects are written in the mesh's tau on
     [-1, 1], so a segment K times shorter than the whole has a differentiation matrix K times
     larger; the same accuracy of its local defects (and the same round-off floor) is K times
-    the residual."""
+    the residual. `ALOptions`: the same for their inner Newton-KKT options."""
+    if isinstance(options, ALOptions):
+        return dataclasses.replace(options, inner=rung_options(options.inner, segments))
     return dataclasses.replace(options, tol_feasibility=options.tol_feasibility * segments)
 
 
 def refine_transfer(problem, options, judge, ladder: MeshLadder = DEFAULT_LADDER):
     """Newton-KKT on the `MeshLadder` until the estimate meets the tolerance
     (`jaxlpm.solvers.refine`): every model; the first rung from the linear model's warm start,
-    each next one from the previous solution."""
-    options = NewtonOptions() if options is None else options
+    each next one from the previous solution; with safety constraints by the augmented
+    Lagrangian (`ALOptions`)."""
+    if options is None:
+        options = ALOptions() if problem.constraints else NewtonOptions()
 
     def solve_on(mesh, z0):
         rung = rung_options(options, mesh.n_segments)
@@ -83,11 +92,22 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder = DEFAULT_LADDER
 
 
 def default_method(problem, grid):
-    """The KKT law for the linear model on an LGL grid, Newton-KKT otherwise."""
+    """The augmented Lagrangian with safety constraints, else the KKT law for the linear
+    model on an LGL grid, Newton-KKT otherwise."""
+    if problem.constraints:
+        return "augmented-lagrangian"
     return "kkt" if problem.model == "linear" and grid.scheme == "LGL" else "newton"
 
 
+def refine_method(problem):
+    """The method of mesh refinement: Newton-KKT, inside the augmented Lagrangian where the
+    transfer has safety constraints."""
+    return "augmented-lagrangian" if problem.constraints else "newton"
+
+
 def check_grid(grid, method):
+    if method == "augmented-lagrangian":
+        method = "newton"                     # the same transcription and Newton-KKT
     if isinstance(grid, LGRMesh) and method == "newton":
         if grid.segment.n < MIN_NEWTON_POINTS["LGR"]:
             raise ValueError(f"the Newton-KKT solver needs at least "
@@ -113,7 +133,13 @@ def check_grid(grid, method):
 def run(problem, grid, method, options):
     """The method's compiled solver (traced input too: under an outer jit it inlines, under
     an eager vmap or grad it compiles one program instead of dispatching op by op)."""
-    if method == "newton":
+    if bool(problem.constraints) != (method == "augmented-lagrangian"):
+        raise ValueError(
+            "a transfer with safety constraints is solved by method 'augmented-lagrangian' "
+            f"(options ALOptions), got {method!r}" if problem.constraints else
+            "method 'augmented-lagrangian' is for transfers with safety constraints "
+            "(EnergyOptimalTransfer(..., constraints=[...])); this one has none: use 'newton'")
+    if method in ("newton", "augmented-lagrangian"):
         return _newton(problem, grid, options)
     if problem.model != "linear":
         raise ValueError(f"the {method!r} law is linear: model must be 'linear', got "
@@ -122,7 +148,8 @@ def run(problem, grid, method, options):
 
 
 FAMILY = FamilySolver(problem=EnergyOptimalTransfer,
-                      methods={"kkt": None, "stm": None, "newton": NewtonOptions}, run=run,
+                      methods={"kkt": None, "stm": None, "newton": NewtonOptions,
+                               "augmented-lagrangian": ALOptions}, run=run,
                       default_grid=lambda problem: lgl(DEFAULT_POINTS), check_grid=check_grid,
                       default_method=default_method, refine=refine_transfer,
-                      refine_method="newton")
+                      refine_method=refine_method)

@@ -22,7 +22,7 @@ class FamilySolver:
     refine        optional (problem, options, judge) -> `Solution`: the mesh refinement
                   `solve(problem)` runs for a concrete problem without a grid, with the
                   method `refine_method` (`jaxlpm.solvers.refine`)
-    refine_method the method refinement uses
+    refine_method the method refinement uses: a name, or problem -> name
     """
 
     problem: type
@@ -32,15 +32,17 @@ class FamilySolver:
     check_grid: Callable
     default_method: Callable | None = None
     refine: Callable | None = None
-    refine_method: str | None = None
+    refine_method: str | Callable | None = None
 
     def solve(self, problem, grid, method, options, judge):
         """The solution of `problem` with `judge` (INACCURATE where the error estimate
         exceeds the tolerance) applied."""
+        refine_method = (self.refine_method(problem) if callable(self.refine_method)
+                         else self.refine_method)
         refining = (grid is None and self.refine is not None and is_concrete(problem)
-                    and method in (None, self.refine_method))
+                    and method in (None, refine_method))
         if refining:
-            method = self.refine_method
+            method = refine_method
         elif grid is None:
             grid = self.default_grid(problem)
         if method is None:

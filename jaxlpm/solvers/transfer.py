@@ -4,8 +4,10 @@ The transfer is written as an `OptimalControlProblem` in the chief's anomaly
 (`jaxlpm.problems.energy_optimal`), warm-started from the linear model's KKT solution on the same
 grid (Mei 2010 §3.2's law on LGL; one Newton step of the same QP on LG and LGR), and solved by
 `newton_kkt` (its KKT systems by the condensed null-space solve on the nonlinear models, see
-`newton_transfer`). Outputs are in SI (LVLH, m, m/s, m/s^2); gradients with respect to the problem's array leaves (e, a,
-duration, boundary states, J2) come from the implicit function theorem at the KKT point.
+`newton_transfer`), or, with safety constraints, by the augmented Lagrangian around the same
+Newton-KKT iterations. Outputs are in SI (LVLH, m, m/s, m/s^2); gradients with respect to the
+problem's array leaves (e, a, duration, boundary states, J2, the constraints' numbers) come
+from the implicit function theorem at the KKT point.
 """
 
 import jax
@@ -19,7 +21,8 @@ from ..linalg import sequential_when_batched
 from ..status import Status
 from .lq import kkt_law
 from ..nlp.condensed import CondensedSecondOrder
-from ..nlp.newton import DenseKKT, NewtonOptions, newton_kkt, newton_step
+from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
+from ..nlp.newton import DenseKKT, NewtonOptions, NLPResult, newton_kkt, newton_step
 from ..solution import Solution
 
 
@@ -30,7 +33,7 @@ def _warm_start(problem, ocp, grid):
     Newton-KKT step. Also returns whether that linear problem is singular: its boundary
     states are not reachable with the thrust axes given (the law's status SINGULAR; on LG and
     LGR a step that leaves the linear constraints unmet)."""
-    linear = problem.replace(model="linear")
+    linear = problem.replace(model="linear", constraints=())
     if grid.scheme == "LGL":
         law = kkt_law(linear, grid)
         X_lvlh, U_si = law.node_states, law.node_controls
@@ -77,10 +80,13 @@ def _condensable(problem, grid):
                                          or isinstance(grid, LGRMesh))
 
 
-def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
+def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOptions(),
                     warm_start: bool = True, linear_algebra: str = "auto",
                     z0=None) -> Solution:
-    """Solve `problem` (any model) on `grid` (any scheme) by Newton-KKT.
+    """Solve `problem` (any model) on `grid` (any scheme) by Newton-KKT, or with safety
+    constraints (`problem.constraints`) by the augmented Lagrangian around Newton-KKT
+    (`options` then an `ALOptions`; stats add outer_iterations, path_residual,
+    complementarity and path_multipliers, the multipliers of g <= 0 at the points).
 
     linear_algebra: how each Newton-KKT system is solved: "dense" (`DenseKKT`, one LU of the
     whole KKT matrix), "condensed" (`CondensedSecondOrder`: the same step from a 3 (N - 3)-unknown
@@ -94,6 +100,11 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
     NONFINITE. z0: an initial guess in the solver's units (`refine.interpolated_guess`: a
     coarser solution of the same problem), in place of the warm start.
     """
+    constrained = bool(problem.constraints)
+    if not isinstance(options, ALOptions if constrained else NewtonOptions):
+        raise ValueError(f"options must be {'ALOptions' if constrained else 'NewtonOptions'} "
+                         f"for a transfer {'with' if constrained else 'without'} safety "
+                         f"constraints, got {type(options).__name__}")
     valid = problem.validity()
     problem = problem.sanitized(valid)
     ocp, chief, ok = transfer_ocp(problem, grid)
@@ -115,11 +126,25 @@ def newton_transfer(problem, grid, options: NewtonOptions = NewtonOptions(),
         raise ValueError("linear_algebra='condensed' needs a nonlinear model ('two-body', "
                          "'j2') and every thrust axis; use 'dense' or 'auto'")
     la = CondensedSecondOrder if condensable and linear_algebra != "dense" else DenseKKT
-    result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy, linear_algebra=la)
+    extra = None
+    if constrained:
+        al = augmented_lagrangian(ocp, grid, z0, options=options, linear_algebra=la)
+        result = NLPResult(z=al.z, multipliers=al.multipliers, status=al.status,
+                           iterations=al.inner_iterations,
+                           constraint_residual=al.constraint_residual,
+                           stationarity_residual=al.stationarity_residual, history=al.history,
+                           regularisation=jnp.zeros((), z0.dtype))
+        extra = dict(outer_iterations=al.outer_iterations, path_residual=al.path_residual,
+                     complementarity=al.complementarity,
+                     path_multipliers=al.path_multipliers.inequality)
+    else:
+        result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy,
+                            linear_algebra=la)
     # a failed solve whose linearisation cannot reach the target with the thrust axes given
     # is reported as what it is: SINGULAR (uncontrollable), not a solver failure
     status = jnp.where(linear_singular & (result.status != Status.SUCCESS), Status.SINGULAR,
                        result.status)
     status = jnp.where(valid, jnp.where(ok, status, Status.NONFINITE),
                        Status.INVALID_INPUT).astype(jnp.int32)
-    return to_solution(problem, ocp, grid, chief, result, status, valid)
+    return to_solution(problem, ocp, grid, chief, result, status, valid,
+                       method="augmented-lagrangian" if constrained else "newton", extra=extra)
