@@ -23,9 +23,6 @@ from jaxlpm import Status
 ORBIT = lpm.KeplerOrbit(a=7000e3, e=0.05, f0=0.4)
 PERIOD = float(ORBIT.period)
 TOL = lpm.DEFAULT_TOLERANCE
-# The thrust limit and passive safety are solved on a fixed uniform mesh: on the refinement
-# ladder's split meshes their augmented Lagrangian ends at its iteration limit (issue 22 note)
-UNIFORM = lpm.lgr_mesh(16, 16)
 # every constraint's violation is judged against the default tolerance: 0.1 m (keep-out,
 # cone, passive safety), 1e-4 m/s (speed), 1e-4 m/s of delta-v beyond the thrust bound
 
@@ -36,12 +33,11 @@ def dense(solution, n=4001):
     return t, np.asarray(solution.states(t)), np.asarray(solution.controls(t))
 
 
-def solve_pair(problem, constraint, grid=None):
-    """(unconstrained optimum, the constrained solution: by default refinement, or on
-    `grid`)."""
+def solve_pair(problem, constraint):
+    """(unconstrained optimum, the constrained solution by default refinement)."""
     free = lpm.solve(problem, throw=False)
     assert int(free.status) == Status.SUCCESS
-    sol = lpm.solve(problem.replace(constraints=(constraint,)), grid, throw=False)
+    sol = lpm.solve(problem.replace(constraints=(constraint,)), throw=False)
     return free, sol
 
 
@@ -144,7 +140,7 @@ def test_speed_limit(approach):
 def test_thrust_limit(flyby):
     u_free = np.max(np.linalg.norm(dense(lpm.solve(flyby))[2], axis=1))
     u_max = 0.7 * u_free
-    free, sol = solve_pair(flyby, lpm.ThrustLimit(u_max=u_max), UNIFORM)
+    free, sol = solve_pair(flyby, lpm.ThrustLimit(u_max=u_max))
     assert_constrained_optimum(free, sol)
     t, _, u = dense(sol)
     u = np.linalg.norm(u, axis=1)
@@ -205,7 +201,7 @@ def test_passive_safety_by_independent_propagation():
     zone = lpm.PassiveSafety(semi_axes=(R, R, R), horizon=PERIOD, window=(0.0, 0.7 * T),
                              samples=192)
     free = lpm.solve(problem)
-    sol = lpm.solve(problem.replace(constraints=(zone,)), UNIFORM, tolerance=tol, throw=False)
+    sol = lpm.solve(problem.replace(constraints=(zone,)), tolerance=tol, throw=False)
 
     def worst_depth(solution, times):
         states = np.asarray(solution.states(times))

@@ -80,6 +80,15 @@ def _condensable(problem, grid):
                                          or isinstance(grid, LGRMesh))
 
 
+def _auto_condensed(problem, grid):
+    """What "auto" picks: the condensed solve where it applies, except with safety
+    constraints: inside the augmented Lagrangian its steps lost the inner problems'
+    stationarity on meshes of 16 segments and more (thrust limit, 16 x 16 points: 0.01 left
+    after 30 outer iterations, where the dense solve converges in 4; as for the minimum-time
+    family, `jaxlpm.solvers.min_time`)."""
+    return _condensable(problem, grid) and not problem.constraints
+
+
 def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOptions(),
                     warm_start: bool = True, linear_algebra: str = "auto",
                     z0=None) -> Solution:
@@ -91,7 +100,7 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
     linear_algebra: how each Newton-KKT system is solved: "dense" (`DenseKKT`, one LU of the
     whole KKT matrix), "condensed" (`CondensedSecondOrder`: the same step from a 3 (N - 3)-unknown
     null-space system; nonlinear models with every thrust axis) or "auto"
-    (default: "condensed" where it applies, else "dense").
+    (default: "condensed" where it applies, else "dense"; "dense" with safety constraints).
     warm_start=False starts from zero states and controls (the linear model then converges
     in one Newton step: it is a QP). On the nonlinear models a failed solve is retried by
     continuation in the separation (`separation_homotopy`, from 1/64 of it to all of it);
@@ -125,7 +134,9 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
     if linear_algebra == "condensed" and not condensable:
         raise ValueError("linear_algebra='condensed' needs a nonlinear model ('two-body', "
                          "'j2') and every thrust axis; use 'dense' or 'auto'")
-    la = CondensedSecondOrder if condensable and linear_algebra != "dense" else DenseKKT
+    auto = _auto_condensed(problem, grid)
+    la = (CondensedSecondOrder if linear_algebra == "condensed"
+          or (linear_algebra == "auto" and auto) else DenseKKT)
     extra = None
     if constrained:
         al = augmented_lagrangian(ocp, grid, z0, options=options, linear_algebra=la)
