@@ -13,6 +13,7 @@ import numpy as np
 
 from ..collocation.segments import LGRMesh, lgr_mesh
 from ..collocation import lgr
+from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.newton import NewtonOptions
 from ..problems.energy_optimal import scaled_rows
 from ..solution import DEFAULT_TOLERANCE, judge
@@ -25,11 +26,14 @@ from .sweep import map_in_groups
 
 def accuracy_record(solution):
     """A member's record: status, cost (m^2/s^3), the error estimate (m, m/s, relative),
-    Newton iterations."""
+    Newton iterations; with safety constraints their dense check too (constraint_violation,
+    violation_position, violation_velocity, path_violation: `safety_stats`)."""
     st = solution.stats
+    safety = {key: st[key] for key in ("constraint_violation", "violation_position",
+                                       "violation_velocity", "path_violation") if key in st}
     return dict(status=solution.status, cost=solution.cost,
                 error_position=st["error_position"], error_velocity=st["error_velocity"],
-                relative_error=st["relative_error"], iterations=st["iterations"])
+                relative_error=st["relative_error"], iterations=st["iterations"], **safety)
 
 
 def gradient_record(gradient) -> dict:
@@ -76,16 +80,19 @@ def _take(tree, idx):
 
 
 def refine_batch(problems, *, ladder=DEFAULT_LADDER, tolerance=DEFAULT_TOLERANCE,
-                 options: NewtonOptions = NewtonOptions(), record=accuracy_record,
+                 options: NewtonOptions | ALOptions | None = None, record=accuracy_record,
                  gradients: bool = False, width: int = 1, log=None) -> dict:
     """Refine a batch of `EnergyOptimalTransfer`s (leading axis: members) rung by rung (module
     docstring). record(solution) -> dict of arrays: what is kept of each member's final
     solution (the default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`).
     gradients: also the implicit gradient of the cost with respect to every leaf of the
     problem (`gradient_record`: dcost_dx0, dcost_dxf, dcost_dduration, dcost_dorbit.e, ...),
-    taken on each member's final mesh (its breaks held fixed). Returns the records as NumPy
-    arrays (members first) plus "rung" (the rung each member ended on) and "segments" (its
-    mesh's segment count)."""
+    taken on each member's final mesh (its breaks held fixed). options: the solver's (None:
+    `NewtonOptions()`, or `ALOptions()` for transfers with safety constraints). Returns the
+    records as NumPy arrays (members first) plus "rung" (the rung each member ended on) and
+    "segments" (its mesh's segment count)."""
+    if options is None:
+        options = ALOptions() if problems.constraints else NewtonOptions()
     n_members = jax.tree_util.tree_leaves(problems)[0].shape[0]
     todo = np.arange(n_members)
     out, carry, previous = None, None, None
