@@ -86,8 +86,8 @@ def _ellipsoid_depth(r, centre, semi_axes):
 
 
 class _Constraint(Checked):
-    """What every safety constraint has: `values` (the solver's g), `violation` (SI), and
-    `drift_maps` (per-point data; None but for passive safety)."""
+    """What every safety constraint has: `values` (the solver's g) and `violation` (SI);
+    `PassiveSafety` also has `drift_maps` (its per-point data, `node_drift`)."""
 
     UNIT = "m"
 
@@ -96,9 +96,6 @@ class _Constraint(Checked):
 
     def __post_init__(self):
         coerce_sequences(self)
-
-    def drift_maps(self, orbit, t, factor: int = 1):
-        return None
 
 
 @jax.tree_util.register_dataclass
