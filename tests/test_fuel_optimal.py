@@ -20,8 +20,8 @@ from jaxlpm import (DEFAULT_TOLERANCE, EnergyOptimalTransfer, KeplerOrbit, Statu
 from jaxlpm.collocation.segments import aligned_breaks, segmented_lgr, uniform_breaks
 from jaxlpm.constants import R_EARTH
 from jaxlpm.linalg import dense_solve
-from jaxlpm.dynamics import hcw_flow
-from jaxlpm.problems.fuel_optimal import FuelOptimalTransfer, condensed_lgr, hcw_input_matrices
+from jaxlpm.dynamics import hcw_flow, hcw_matrix
+from jaxlpm.problems.fuel_optimal import FuelOptimalTransfer, condensed_lgr
 from jaxlpm.solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,
                                          refine_fuel_optimal)
 from jaxlpm.nlp.homotopy import HomotopyOptions, pointwise_control, throttle
@@ -38,6 +38,11 @@ def problem(y, thrust=0.3, duration=PERIOD):
     return FuelOptimalTransfer(ORBIT, jnp.zeros(6), jnp.array([0.0, y, 0.0, 0.0, 0.0, 0.0]),
                                jnp.asarray(duration), jnp.asarray(thrust), jnp.asarray(50.0),
                                jnp.asarray(1000.0))
+
+
+def hcw_input_matrices():
+    """(A, B) of HCW in s = n t, accelerations in L n^2."""
+    return hcw_matrix(1.0), jnp.concatenate([jnp.zeros((3, 3)), jnp.eye(3)])
 
 
 def batch(problems):
@@ -106,7 +111,8 @@ def test_indirect_agrees_with_direct(final):
     panels aligned with the direct mesh), started from the LGR energy-optimal costates."""
     for i, y in enumerate(TARGETS):
         sol = member(final, i)
-        b = aligned_breaks(0.0, 1.0, 200, np.asarray(sol.grid.breaks)[1:-1])
+        # the mesh's breaks (an LGRMesh in tau) as fractions of the transfer
+        b = aligned_breaks(0.0, 1.0, 200, 0.5 * (np.asarray(sol.grid.breaks)[1:-1] + 1.0))
         ind = indirect_fuel_optimal(problem(y), b, sol.stats["energy_multipliers"])
         assert int(ind.status) == Status.SUCCESS
         assert abs(float(ind.dv) - float(sol.delta_v)) / float(sol.delta_v) < 1e-4
@@ -219,8 +225,11 @@ def test_infeasible_thrust_and_invalid_member():
 
 def test_bad_input_raises():
     mesh = segmented_lgr(uniform_breaks(0.0, 1.0, 4), 4)
-    with pytest.raises(ValueError, match="circular"):
-        solve(problem(4000.0).replace(orbit=ORBIT.replace(e=jnp.asarray(0.1))), mesh)
+    with pytest.raises(ValueError, match="model must be one of"):
+        solve(problem(4000.0).replace(model="hcw"), mesh)
+    with pytest.raises(ValueError, match="perigee"):
+        solve(problem(4000.0).replace(orbit=ORBIT.replace(e=jnp.asarray(0.1)), model="j2"),
+              mesh)
     with pytest.raises(ValueError, match="thrust_max must be positive"):
         solve(problem(4000.0, thrust=0.0), mesh)
     with pytest.raises(ValueError, match="from 0 to 1"):

@@ -139,23 +139,27 @@ class LGRMesh:
 
     @property
     def _half(self):
-        return 0.5 * jnp.diff(self.breaks)                               # (K,)
+        return 0.5 * jnp.diff(self.breaks, axis=-1)                      # (..., K)
 
+    # points, weights and support also take a batch of meshes (breaks (..., K + 1)), as a
+    # batched solution holds them
     @property
     def points(self):
         """tau of the K n_k collocation points, segment by segment."""
         g = self.segment
-        return (self.breaks[:-1, None] + self._half[:, None] * (jnp.asarray(g.points) + 1.0)
-                ).reshape(-1)
+        tau = (self.breaks[..., :-1, None]
+               + self._half[..., None] * (jnp.asarray(g.points) + 1.0))
+        return tau.reshape(*tau.shape[:-2], -1)
 
     @property
     def weights(self):
-        return (self._half[:, None] * jnp.asarray(self.segment.weights)).reshape(-1)
+        w = self._half[..., None] * jnp.asarray(self.segment.weights)
+        return w.reshape(*w.shape[:-2], -1)
 
     @property
     def support(self):
         """tau of the K n_k + 1 state rows."""
-        return jnp.concatenate([self.points, self.breaks[-1:]])
+        return jnp.concatenate([self.points, self.breaks[..., -1:]], axis=-1)
 
     @property
     def D(self):

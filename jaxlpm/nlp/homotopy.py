@@ -73,6 +73,10 @@ class HomotopyOptions:
     max_newton     Newton iterations per eps
     max_backtracks step lengths 2^-j tried by the line search (j < max_backtracks)
     tol            max |r| at convergence (solver units: lengths in L, velocities in L n)
+    max_linearisations  homotopies on successive linearisations of nonlinear dynamics at most
+                   (`jaxlpm.solvers.fuel_optimal`)
+    linearisation_tol   they stop when the collocated states move by at most this (solver
+                   units)
     """
 
     eps_min: float = 1e-6
@@ -84,6 +88,8 @@ class HomotopyOptions:
     tol: float = 1e-11
     max_backtracks: int = 16
     armijo: float = 1e-4
+    max_linearisations: int = 12
+    linearisation_tol: float = 1e-8
 
 
 @jax.tree_util.register_dataclass
@@ -213,7 +219,9 @@ def newton_dual(nu0, E, c, d, eps, options: HomotopyOptions):
     return nu, done & jnp.isfinite(res), k, res, saturated
 
 
-def _homotopy(E, c, d, nu0, options: HomotopyOptions):
+def run_homotopy(E, c, d, nu0, options: HomotopyOptions) -> "HomotopyResult":
+    """The homotopy (module docstring) from the eps = 1 guess nu0, traced (the body of
+    `energy_to_fuel`, for solvers that run it inside their own loops)."""
     opts = options
     dtype = d.dtype
     nu_e, ok_e, k_e, res_e, sat_e = newton_dual(nu0, E, c, d, jnp.asarray(1.0, dtype), opts)
@@ -254,8 +262,8 @@ def energy_to_fuel(E, c, d, nu0=None,
     """Run the homotopy for the condensed problem (E (m, n_x, 3), c (m,), d (n_x,); see the
     module docstring) from the eps = 1 guess nu0 (default 0). jit-compiled per shape and
     options; vmap-able."""
-    return _homotopy(E, c, d, jnp.zeros_like(d) if nu0 is None else nu0, options)
+    return run_homotopy(E, c, d, jnp.zeros_like(d) if nu0 is None else nu0, options)
 
 
 __all__ = ["HomotopyOptions", "HomotopyResult", "controls", "dual", "energy_to_fuel",
-           "newton_dual", "primers", "residual"]
+           "newton_dual", "primers", "residual", "run_homotopy"]

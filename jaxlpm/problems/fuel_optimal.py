@@ -1,48 +1,58 @@
-"""Fuel-optimal relative transfer with bounded thrust on HCW, and its energy-to-fuel smoothing
-(Yue & Duan 2016, eq. 18-22 and 31-34; Bertrand & Epenoy 2002, "New smoothing techniques for
-solving bang-bang optimal control problems", Optim. Control Appl. Meth. 23, 171-197).
+"""Fuel-optimal relative transfer with bounded thrust, and its energy-to-fuel smoothing (Yue &
+Duan 2016, eq. 18-22 and 31-34; Bertrand & Epenoy 2002, "New smoothing techniques for solving
+bang-bang optimal control problems", Optim. Control Appl. Meth. 23, 171-197), on the dynamics
+models of the energy-optimal transfers.
 
-    minimise    J_eps = (T_max / m) int_0^{t_f} [ w - eps w (1 - w) ] dt,   w = |u| / u_max
-    subject to  x_dot = A_HCW x + B u,  |u| <= u_max = T_max / m,  x(0) = x0,  x(t_f) = xf
+    minimise    J_eps = u_max int_0^{t_f} [ w - eps w (1 - w) ] dt,   w = |u| / u_max
+    subject to  the relative dynamics of `model`,  |u| <= u_max = T_max / m,
+                x(0) = x0, x(t_f) = xf
     LVLH frame (x radial out, y along-track, z orbit normal); m, m/s, m/s^2, s; T_max in N,
     m in kg held constant in the dynamics (the paper's eq. 1 assumption); t_f fixed.
 
+models (`jaxlpm.problems.energy_optimal`): "linear" (Tschauner-Hempel about a Keplerian chief;
+HCW at e = 0), "two-body", "j2". The transcription is the energy-optimal transfer's
+(`transfer_ocp`) in the same independent variable s (the chief's true anomaly, or the J2
+chief's regularised anomaly), on a segmented LGR mesh (Garg et al. 2010) whose breaks are
+fractions of [s0, s_f] (of the duration on a circular chief).
+
 eps = 1 is the energy-like problem (J_1 = int |u|^2 / u_max dt, with the thrust bound),
 eps = 0 the fuel (Delta-v) problem, J_0 = int |u| dt. For 0 < eps <= 1 the integrand
-(1 - eps) w + eps w^2 is strictly convex in w. With the primer vector p = -lambda_v (the
-velocity costate, scaled so that the cost rate is u_max (.) and p . u / u_max its pairing)
-and S = |p|, Pontryagin's minimum gives the direction p / S and the throttle (paper eq. 33-34
-with the switching function rho = 1 - S):
+(1 - eps) w + eps w^2 is strictly convex in w. With the primer vector p = -lambda_v / (n dt/ds)
+(the velocity costate per unit of the cost rate) and S = |p|, Pontryagin's minimum gives the
+direction p / S and the throttle (paper eq. 33-34 with the switching function rho = 1 - S):
 
     w = 0 if rho > eps,   w = 1 if rho < -eps,   w = (eps - rho) / (2 eps) otherwise.
 
 The fuel mass is reported by the rocket equation m (1 - exp(-Delta v / (Isp g0))) (the paper's
 eq. 2 is its first-order form F dt / (Isp g0), larger by a relative Delta v / (2 Isp g0)).
 
-Inside the solver: s = n t (the chief's angle), lengths in L = max(|r0|, |rf|, 1 m),
-accelerations in L n^2; `condensed_lgr` transcribes x' = A x + B u on a segmented LGR mesh and
-eliminates the states, so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i.
+Condensed transcription (`condensed_lgr`): the dynamics linearised at the collocation points,
+x' = A_i x + B_i u + c_i (exact for the linear model; about a reference trajectory for the
+nonlinear ones, `linearised_nlp`), collocated on each LGR segment and the states eliminated,
+so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i + o. The solver
+(`jaxlpm.solvers.fuel_optimal`) relinearises the nonlinear models about each solution until
+the state rows stop moving: the fixed point satisfies the nonlinear collocation equations, and
+its KKT conditions are the nonlinear problem's (the linearisation has the same Jacobians there).
 """
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import jax
 import jax.numpy as jnp
 
 from .._validation import Checked, Rule, coerce_sequences
-from ..constants import G0
-from ..dynamics import hcw_flow, hcw_matrix
-from ..dynamics.linear import hcw_unit_rates
-from ..linalg import dense_solve
 from ..collocation.segments import LGRMesh, SegmentedMesh
-from ..nlp.accuracy import check_flight, check_mesh, collocation_defects
+from ..constants import G0, J2_EARTH, R_EARTH
+from ..dynamics.chief import anomaly_rate
+from ..linalg import dense_solve
 from ..nlp.homotopy import controls, primers
-from ..nlp.ocp import OptimalControlProblem
+from ..nlp.transcription import collocated_rows, collocation_s
 from ..orbits import KeplerOrbit
-from ..solution import Segmented, Solution
-from ..solution.accuracy import accuracy_stats
-from ..status import Status
-from .scaling import length_scale, state_scale
+from ..solution import Collocated, Solution
+from . import safety
+from .scaling import safe_norm
+from .energy_optimal import (MODELS, EnergyOptimalTransfer, collocation_accuracy,
+                             control_scale, lvlh_state, model_state, transfer_ocp)
 
 
 @jax.tree_util.register_dataclass
@@ -50,13 +60,16 @@ from .scaling import length_scale, state_scale
 class FuelOptimalTransfer(Checked):
     """Minimise the delta-v int |u| dt (m/s) from x0 to xf in `duration` with |u| bounded.
 
-    orbit        the chief's circular `KeplerOrbit` (e = 0: HCW; SI, rad); t = 0 at its epoch
+    orbit        the chief's `KeplerOrbit` (SI, rad); the transfer starts at its epoch
     x0, xf       LVLH states [x, y, z, vx, vy, vz] (m, m/s; x radial outward, y along-track,
                  z orbit normal)
     duration     t_f (s, fixed)
     thrust_max   the thrust bound T_max (N); u_max = T_max / mass (m/s^2)
     mass         the spacecraft's mass (kg, held constant in the dynamics)
     isp          specific impulse (s), for the propellant mass by the rocket equation
+    model        "linear" (Tschauner-Hempel; HCW on a circular chief), "two-body" or "j2"
+                 (static; `jaxlpm.problems.energy_optimal`)
+    j2, r_eq     the J2 coefficient and equatorial radius (m) of the "j2" model
     """
 
     orbit: KeplerOrbit
@@ -66,8 +79,12 @@ class FuelOptimalTransfer(Checked):
     thrust_max: jax.Array
     mass: jax.Array
     isp: jax.Array
+    model: str = field(default="linear", metadata=dict(static=True))
+    j2: jax.Array = J2_EARTH
+    r_eq: jax.Array = R_EARTH
 
-    SHAPES = {"x0": (6,), "xf": (6,), "duration": (), "thrust_max": (), "mass": (), "isp": ()}
+    SHAPES = {"x0": (6,), "xf": (6,), "duration": (), "thrust_max": (), "mass": (), "isp": (),
+              "j2": (), "r_eq": ()}
 
     def __post_init__(self):
         coerce_sequences(self)
@@ -80,27 +97,36 @@ class FuelOptimalTransfer(Checked):
         """u_max = T_max / m (m/s^2)."""
         return self.thrust_max / self.mass
 
+    def energy_problem(self, constraints=()) -> EnergyOptimalTransfer:
+        """The energy-optimal transfer between the same states on the same model (its
+        transcription, scaling and accuracy check are this family's too)."""
+        return EnergyOptimalTransfer(self.orbit, self.x0, self.xf, self.duration,
+                                     model=self.model, j2=self.j2, r_eq=self.r_eq,
+                                     constraints=constraints)
+
     def rules(self):
-        """Validity rules, written once (`jaxlpm._validation.Checked`)."""
+        """Validity rules, written once (`jaxlpm._validation.Checked`): the energy-optimal
+        transfer's (orbit, states, duration, model constants), then the engine's."""
         positive = [Rule(name, jnp.isfinite(getattr(self, name)) & (getattr(self, name) > 0.0),
                          f"positive and finite ({unit})")
-                    for name, unit in (("duration", "s"), ("thrust_max", "N"), ("mass", "kg"),
-                                       ("isp", "s"))]
-        return [*self.orbit.rules(),
-                Rule("orbit.e", self.orbit.e == 0.0,
-                     "0: fuel-optimal transfers use the HCW equations (circular chief)"),
-                Rule("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
-                Rule("xf", jnp.all(jnp.isfinite(self.xf)), "finite (m, m/s)"),
-                *positive,
+                    for name, unit in (("thrust_max", "N"), ("mass", "kg"), ("isp", "s"))]
+        return [*self.energy_problem().rules(), *positive,
                 Rule("xf", jnp.any(self.x0 != self.xf),
                      "different from x0 (the fuel-optimal transfer is no thrust at all)")]
 
+    def static_rules(self) -> None:
+        """The model, then the fields' shapes (`Checked.static_rules`)."""
+        if self.model not in MODELS:
+            raise ValueError(f"model must be one of {MODELS}, got {self.model!r}")
+        super().static_rules()
+
     def harmless(self) -> "FuelOptimalTransfer":
-        """A valid transfer (100 m along-track from rest in 5000 s, 1 N on 100 kg)."""
+        """A valid transfer of the same model (100 m along-track from rest in 5000 s, 1 N on
+        100 kg, about a circular orbit)."""
         return FuelOptimalTransfer(
             orbit=self.orbit.harmless(), x0=jnp.zeros(6),
             xf=jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), duration=5000.0, thrust_max=1.0,
-            mass=100.0, isp=300.0)
+            mass=100.0, isp=300.0, model=self.model, j2=0.0, r_eq=R_EARTH)
 
 
 def check_fuel_problem(problem: FuelOptimalTransfer) -> None:
@@ -115,66 +141,96 @@ def rocket_fuel(dv, problem: FuelOptimalTransfer):
     return problem.mass * -jnp.expm1(-dv / (problem.isp * G0))
 
 
-def hcw_input_matrices():
-    """(A, B) of x' = A x + B u in the solver's units (s = n t, accelerations in L n^2)."""
-    B = jnp.concatenate([jnp.zeros((3, 3)), jnp.eye(3)])
-    return hcw_matrix(1.0), B
-
-
-def _segment_maps(A, B, grid, h):
-    """One LGR segment of half length h: the state rows X_r (n, n_x) after its first point,
-    X_r = P_rows x_start + G_rows U, from the defects D X = h (A X_c + B U) (Garg et al. 2010)."""
-    n, n_x, n_u = grid.n, A.shape[0], B.shape[1]
+def _segment_maps(A, B, c, grid, h):
+    """One LGR segment of half length h with x' = A_i x + B_i u + c_i at its n points (A (n,
+    n_x, n_x), B (n, n_x, n_u), c (n, n_x)): the state rows X_r (n, n_x) after its first
+    point, X_r = P x_start + G U + g, from the defects D X = h (A_i X_i + B_i U_i + c_i)
+    (Garg et al. 2010); also M (the defects' matrix in X_r), for the discrete adjoint."""
+    n, n_x, n_u = grid.n, A.shape[-1], B.shape[-1]
     d0, Dr = grid.D[:, 0], grid.D[:, 1:]
-    shift = jnp.eye(n, k=-1)
-    e0 = jnp.zeros(n).at[0].set(1.0)
     eye = jnp.eye(n_x)
-    M = jnp.kron(Dr, eye) - h * jnp.kron(shift, A)
-    rhs_x = -jnp.kron(d0[:, None], eye) + h * jnp.kron(e0[:, None], A)
-    rhs_u = h * jnp.kron(jnp.eye(n), B)
-    sol = dense_solve(M, jnp.concatenate([rhs_x, rhs_u], axis=1))
+    # point i >= 1 is state row i - 1 of X_r: the block sub-diagonal of A_i
+    below = jnp.zeros((n, n, n_x, n_x)).at[jnp.arange(1, n), jnp.arange(n - 1)].set(A[1:])
+    M = jnp.kron(Dr, eye) - h * below.transpose(0, 2, 1, 3).reshape(n * n_x, n * n_x)
+    rhs_x = -jnp.kron(d0[:, None], eye) + h * jnp.zeros((n, n_x, n_x)).at[0].set(
+        A[0]).reshape(n * n_x, n_x)
+    rhs_u = h * jnp.einsum("ij,iab->iajb", jnp.eye(n), B).reshape(n * n_x, n * n_u)
+    rhs = jnp.concatenate([rhs_x, rhs_u, h * c.reshape(n * n_x, 1)], axis=1)
+    sol = dense_solve(M, rhs)
     P = sol[:, :n_x].reshape(n, n_x, n_x)
-    G = sol[:, n_x:].reshape(n, n_x, n, n_u)
-    return P, G
+    G = sol[:, n_x:n_x + n * n_u].reshape(n, n_x, n, n_u)
+    return P, G, sol[:, -1].reshape(n, n_x), M
 
 
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class CondensedLGR:
-    """Segmented LGR transcription of x' = A x + B u with the states eliminated.
+    """Segmented LGR transcription of x' = A_i x + B_i u + c_i with the states eliminated.
 
-    P (K, n, n_x, n_x), G (K, n, n_x, n, n_u): state rows after each segment's first point,
-    X_r,k = P_k x_k + G_k U_k (the last row is the next segment's first state x_{k+1});
-    Phi (n_x, n_x) and E (K, n, n_x, n_u): x_K = Phi x_0 + sum_{k,i} E_{k,i} U_{k,i}.
+    P (K, n, n_x, n_x), G (K, n, n_x, n, n_u), g (K, n, n_x): state rows after each segment's
+    first point, X_r,k = P_k x_k + G_k U_k + g_k (the last row is the next segment's first
+    state x_{k+1}); Phi (n_x, n_x), E (K, n, n_x, n_u) and o (n_x):
+    x_K = Phi x_0 + sum_{k,i} E_{k,i} U_{k,i} + o; Psi (K, n_x, n_x) = d x_K / d x_{k+1}
+    (the sensitivity of the final state to each segment's end); M (K, n n_x, n n_x) the
+    segments' defect matrices in X_r.
     """
 
     P: jax.Array
     G: jax.Array
+    g: jax.Array
     Phi: jax.Array
     E: jax.Array
+    o: jax.Array
+    Psi: jax.Array
+    M: jax.Array
 
     def states(self, x0, U):
         """All state rows (K, n + 1, n_x) (first point, then X_r) for controls U (K, n, n_u)."""
-        def step(x, pg):
-            P, G, u = pg
-            rows = P @ x + jnp.einsum("iajb,jb->ia", G, u)
+        def step(x, pgu):
+            P, G, g, u = pgu
+            rows = P @ x + jnp.einsum("iajb,jb->ia", G, u) + g
             return rows[-1], jnp.concatenate([x[None], rows])
-        _, X = jax.lax.scan(step, x0, (self.P, self.G, U))
+        _, X = jax.lax.scan(step, x0, (self.P, self.G, self.g, U))
         return X
 
+    def costates(self, nu):
+        """The defect multipliers Lambda (K, n, n_x) of the final-state multiplier nu:
+        Lambda_k = M_k^-T (e_last x Psi_k^T nu), so that E_i^T nu = h_k B_i^T Lambda_i. Divided
+        by the LGR weights w_i they are the costate estimates at the collocation points
+        (Garg et al. 2010): lambda(s_i) ~ Phi(s_f, s_i)^T nu."""
+        n_x = self.Phi.shape[0]
 
-def condensed_lgr(A, B, mesh) -> CondensedLGR:
-    """Transcribe x' = A x + B u on a `SegmentedMesh` and eliminate the states (see
-    `CondensedLGR`); continuity across segments is exact (shared break states)."""
-    P, G = jax.vmap(lambda h: _segment_maps(A, B, mesh.grid, h))(mesh.half_lengths)
-    P_end, G_end = P[:, -1], G[:, -1]                      # (K, n_x, n_x), (K, n_x, n, n_u)
+        def one(M, Psi):
+            last = jnp.zeros((M.shape[0] // n_x, n_x)).at[-1].set(Psi.T @ nu).reshape(-1)
+            return dense_solve(M.T, last[:, None])[:, 0].reshape(-1, n_x)
+        return jax.vmap(one)(self.M, self.Psi)
+
+
+def condensed_lgr(A, B, mesh: SegmentedMesh, c=None) -> CondensedLGR:
+    """Transcribe x' = A x + B u + c on a `SegmentedMesh` and eliminate the states (see
+    `CondensedLGR`). A (n_x, n_x) and B (n_x, n_u) constant, or per collocation point
+    (K, n, n_x, n_x) and (K, n, n_x, n_u); c (K, n, n_x) or None (0). Continuity across
+    segments is exact (shared break states)."""
+    K, n = mesh.n_segments, mesh.grid.n
+    n_x, n_u = A.shape[-1], B.shape[-1]
+    A = jnp.broadcast_to(A, (K, n, n_x, n_x))
+    B = jnp.broadcast_to(B, (K, n, n_x, n_u))
+    c = jnp.zeros((K, n, n_x), A.dtype) if c is None else c
+    P, G, g, M = jax.vmap(lambda a, b, ci, h: _segment_maps(a, b, ci, mesh.grid, h))(
+        A, B, c, mesh.half_lengths)
+    P_end, G_end, g_end = P[:, -1], G[:, -1], g[:, -1]    # (K, n_x, n_x), (K, n_x, n, n_u)
 
     def back(Psi, pg):
-        P_k, G_k = pg
-        return Psi @ P_k, jnp.einsum("ab,bjc->jac", Psi, G_k)
+        P_k, G_k, g_k = pg
+        return Psi @ P_k, (Psi, jnp.einsum("ab,bjc->jac", Psi, G_k), Psi @ g_k)
 
-    Phi, E = jax.lax.scan(back, jnp.eye(A.shape[0]), (P_end, G_end), reverse=True)
-    return CondensedLGR(P=P, G=G, Phi=Phi, E=E)
+    Phi, (Psi, E, o) = jax.lax.scan(back, jnp.eye(n_x), (P_end, G_end, g_end), reverse=True)
+    return CondensedLGR(P=P, G=G, g=g, Phi=Phi, E=E, o=jnp.sum(o, axis=0), Psi=Psi, M=M)
+
+
+def mesh_grid(mesh: SegmentedMesh) -> LGRMesh:
+    """The mesh (breaks as fractions of [s0, s_f]) as an `LGRMesh` in tau in [-1, 1]."""
+    return LGRMesh(breaks=2.0 * mesh.breaks - 1.0, segment=mesh.grid)
 
 
 @jax.tree_util.register_dataclass
@@ -182,119 +238,157 @@ def condensed_lgr(A, B, mesh) -> CondensedLGR:
 class FuelNLP:
     """The transcribed problem handed to `jaxlpm.nlp.homotopy.energy_to_fuel`: minimise
     sum_i c_i l_eps(|v_i|) subject to sum_i E_i v_i = d, |v_i| <= 1 (v = u / u_max at the
-    collocation points), with what maps its solution back to SI.
+    collocation points), with what maps its solution back.
 
-    E (K n, 6, 3), c (K n,), d (6,); cond: the `CondensedLGR` of the mesh in s = n t;
-    mesh_s: the mesh with breaks in s; x0, xf: scaled boundary states; umax: u_max in L n^2.
+    E (K n, 6, 3), c (K n,), d (6,); cond: the `CondensedLGR` in s (the solver's units of
+    `transfer_ocp`); mesh_s: the mesh with breaks in s; x0, xf: scaled boundary states;
+    umax: u_max in the solver's control unit; rate: n dt/ds at the points (K n,).
     """
 
     E: jax.Array
     c: jax.Array
     d: jax.Array
     cond: CondensedLGR
-    mesh_s: object
+    mesh_s: SegmentedMesh
     x0: jax.Array
     xf: jax.Array
     umax: jax.Array
+    rate: jax.Array
+
+    def controls(self, nu, eps):
+        """The solver's controls U (K, n, 3) of the multipliers nu at smoothing eps."""
+        K, n = self.mesh_s.n_segments, self.mesh_s.grid.n
+        return (self.umax * controls(nu, self.E, self.c, eps)).reshape(K, n, 3)
+
+    def states(self, nu, eps):
+        """The state rows (K, n + 1, 6) that those controls give."""
+        return self.cond.states(self.x0, self.controls(nu, eps))
 
 
-def to_nlp(problem: FuelOptimalTransfer, mesh) -> FuelNLP:
-    """The problem on `mesh` (breaks as fractions of the duration) as a `FuelNLP`: HCW in
-    s = n t, lengths in L, the states eliminated by the condensed LGR transcription."""
-    n = problem.orbit.mean_motion
-    scale = state_scale(problem)
-    umax = problem.max_acceleration / (length_scale(problem) * n**2)
-    mesh_s = SegmentedMesh(breaks=mesh.breaks * n * problem.duration, grid=mesh.grid)
-    cond = condensed_lgr(*hcw_input_matrices(), mesh_s)
-    x0, xf = problem.x0 / scale, problem.xf / scale
-    K, npts = mesh_s.n_segments, mesh_s.grid.n
-    return FuelNLP(E=umax * cond.E.reshape(K * npts, 6, 3), c=umax * mesh_s.weights.reshape(-1),
-                   d=xf - cond.Phi @ x0, cond=cond, mesh_s=mesh_s, x0=x0, xf=xf, umax=umax)
+@dataclass(frozen=True)
+class Transcription:
+    """The problem on a mesh (built once per solve, not a pytree): the energy-optimal
+    transfer's `OptimalControlProblem` `ocp` on the `LGRMesh` `grid` (the same mesh in tau),
+    its chief samples `chief` at the state rows, and the chief integration's flag `ok`."""
+
+    problem: FuelOptimalTransfer
+    mesh: SegmentedMesh
+    ocp: object
+    grid: LGRMesh
+    chief: object
+    ok: jax.Array
+
+    def linearised(self, Xc) -> FuelNLP:
+        """The condensed problem with the dynamics linearised at the collocation-point states
+        Xc (K n, 6) (the solver's units; exact, whatever Xc, on the linear model)."""
+        problem, ocp, grid = self.problem, self.ocp, self.grid
+        K, n = self.mesh.n_segments, self.mesh.grid.n
+        s = collocation_s(ocp, grid)
+
+        def f(si, x, u, d):
+            return ocp.dynamics(si, x, u, d, ocp.params)
+
+        def lin(si, x, d):
+            u = jnp.zeros(3, x.dtype)
+            A, B = jax.jacfwd(f, argnums=(1, 2))(si, x, u, d)
+            return A, B, f(si, x, u, d) - A @ x
+
+        A, B, c = jax.vmap(lin)(s, Xc, ocp.node_data)
+        mesh_s = SegmentedMesh(breaks=ocp.s0 + (ocp.sf - ocp.s0) * self.mesh.breaks,
+                               grid=self.mesh.grid)
+        cond = condensed_lgr(A.reshape(K, n, 6, 6), B.reshape(K, n, 6, 3), mesh_s,
+                             c.reshape(K, n, 6))
+        o = problem.orbit
+        rate = o.mean_motion / jax.vmap(anomaly_rate)(
+            self.chief.state[collocated_rows(grid)])
+        umax = problem.max_acceleration / control_scale(self.problem.energy_problem())
+        x0, xf = ocp.params["x0"], ocp.params["xf"]
+        return FuelNLP(E=umax * cond.E.reshape(K * n, 6, 3),
+                       c=umax * mesh_s.weights.reshape(-1) * rate,
+                       d=xf - cond.Phi @ x0 - cond.o, cond=cond, mesh_s=mesh_s, x0=x0,
+                       xf=xf, umax=umax, rate=rate)
 
 
-def _thrust_bound(s, x, u, data, p):
-    return (jnp.linalg.norm(u) - p["umax"])[None]
+def transcribe(problem: FuelOptimalTransfer, mesh: SegmentedMesh) -> Transcription:
+    """The problem on `mesh` (breaks as fractions of [s0, s_f])."""
+    grid = mesh_grid(mesh)
+    ocp, chief, ok = transfer_ocp(problem.energy_problem(), grid)
+    return Transcription(problem, mesh, ocp, grid, chief, ok)
 
 
-def collocation_accuracy(problem: FuelOptimalTransfer, nlp: FuelNLP, X, U):
-    """`jaxlpm.solution.accuracy` stats (SI, LVLH) of the solution with state rows X
-    (K, n + 1, 6) and controls U (K, n, 3) in the solver's units: the GPOPS-II estimate and
-    the check-mesh flight of the control interpolated segment by segment (what `verify.fly`
-    flies), on the mesh seen as one `LGRMesh` in tau = 2 s / s_f - 1. path_violation is the
-    delta-v the engine cannot deliver, int max(|u| - u_max, 0) dt (m/s, the check mesh's
-    quadrature): what clipping the interpolated control to the bound changes the velocity
-    by at most (the interpolant overshoots the bound between the nodes where a segment holds
-    a switch)."""
-    m = nlp.mesh_s
-    K, npts = m.n_segments, m.grid.n
-    sf = m.breaks[-1]
-    grid = LGRMesh(breaks=2.0 * m.breaks / sf - 1.0, segment=m.grid)
-    rows = jnp.concatenate([X[:, :npts].reshape(K * npts, 6), X[-1, -1:]])
-    check = check_mesh(grid)
-    ocp = OptimalControlProblem(n_x=6, n_u=3, dynamics=hcw_unit_rates, s0=jnp.zeros_like(sf),
-                                sf=sf, params={"umax": nlp.umax}, path=_thrust_bound)
-    U = U.reshape(K * npts, 3)
-    d = collocation_defects(ocp, check, grid, rows, U)
-    flown = check_flight(ocp, check, grid, rows, U, newton_steps=1)    # linear: exact
-    excess = jnp.sum(check.weights * jnp.maximum(d.path[:, 0], 0.0)) * 0.5 * sf
-    return accuracy_stats((flown - d.states) * state_scale(problem), d.relative,
-                          excess * length_scale(problem) * problem.orbit.mean_motion)
+def delta_v_unit(problem: FuelOptimalTransfer):
+    """m/s per unit of the condensed cost sum_i c_i |v_i|: control unit / n."""
+    return control_scale(problem.energy_problem()) / problem.orbit.mean_motion
 
 
-def to_solution(problem: FuelOptimalTransfer, mesh, nlp: FuelNLP, res, valid):
-    """The `Solution` (SI, LVLH; `Segmented` on `mesh`) of the homotopy's result `res`: the
-    eps-smoothed optimum's controls and states, cost = delta-v int |u| dt (m/s), costates
-    dJ/dx(s) = L n exp(A (s_f - s))^T nu / scale (the final-state multipliers nu: the exact
-    adjoint of the condensed problem, module docstring), zeros where `valid` is False.
+def to_solution(tr: Transcription, nlp: FuelNLP, res, valid, extra=None):
+    """The `Solution` (SI, LVLH; `Collocated` on the mesh's `LGRMesh`, with the chief's clock)
+    of the homotopy's result `res` on the condensed problem `nlp`: the eps-smoothed optimum's
+    controls and states, cost = delta-v int |u| dt (m/s), costates dJ/dx (m/s per m and per
+    m/s: the LGR estimates of `CondensedLGR.costates`, mapped by the state's scaling), zeros where `valid` is False.
 
-    stats: node_throttle |u| / u_max, node_primers (the primer at the points), fuel (kg),
-    the eps = 1 energy-like solution on the same mesh (energy_node_controls m/s^2,
-    energy_dv m/s, energy_fuel kg, energy_cost 1/2 int |u|^2 dt m^2/s^3), eps,
-    multipliers nu and energy_multipliers (solver units), terminal_error and
-    energy_terminal_error [m, m/s] of the collocated final state, homotopy_steps,
-    failed_steps, newton_iterations; the error estimate (`collocation_accuracy`:
-    error_position m, error_velocity m/s, relative_error, segment_error, path_violation
-    m/s)."""
+    stats: node_throttle |u| / u_max (K, n), node_primers (the primer at the points), fuel
+    (kg), the eps = 1 energy-like solution on the same mesh (energy_node_controls m/s^2,
+    energy_dv m/s, energy_fuel kg, energy_cost 1/2 int |u|^2 dt m^2/s^3), eps, multipliers nu
+    and energy_multipliers (solver units), partial_throttle (points with 0 < w < 1, where the
+    smoothing shows), terminal_error and energy_terminal_error [m, m/s] of the collocated final
+    state, homotopy_steps, failed_steps, newton_iterations; the error estimate
+    (`energy_optimal.collocation_accuracy` with the bound as its `ThrustLimit`: error_position
+    m, error_velocity m/s, relative_error, segment_error, path_violation m/s: the delta-v
+    beyond the bound, int max(|u| - u_max, 0) dt between the nodes, which the interpolant
+    asks of the engine next to a switch inside a segment); `extra` added as it is."""
     def keep(x):
         return jnp.where(valid, x, jnp.zeros_like(x))
 
-    n, L = problem.orbit.mean_motion, length_scale(problem)
-    scale = state_scale(problem)
-    m, E, c = nlp.mesh_s, nlp.E, nlp.c
-    K, npts = m.n_segments, m.grid.n
+    problem, ocp, grid, chief = tr.problem, tr.ocp, tr.grid, tr.chief
+    energy = problem.energy_problem((safety.ThrustLimit(problem.max_acceleration),))
+    K, n = tr.mesh.n_segments, tr.mesh.grid.n
+    unit = delta_v_unit(problem)
+    rows_s = jnp.concatenate([nlp.mesh_s.points.reshape(-1), ocp.sf[None]])
+    to_lvlh = jax.vmap(lambda x, s: lvlh_state(energy, x, s))
 
     def outputs(nu, eps):
-        v = controls(nu, E, c, eps)
-        U = (nlp.umax * v).reshape(K, npts, 3)
-        X = nlp.cond.states(nlp.x0, U)
-        miss = (X[-1, -1] - nlp.xf) * scale
-        err = jnp.stack([jnp.linalg.norm(miss[:3]), jnp.linalg.norm(miss[3:])])
-        return v, U, X, jnp.sum(c * jnp.linalg.norm(v, axis=1)) * L * n, err
+        v = controls(nu, nlp.E, nlp.c, eps)
+        X = nlp.cond.states(nlp.x0, (nlp.umax * v).reshape(K, n, 3))
+        rows = jnp.concatenate([X[:, :n].reshape(K * n, 6), X[-1, -1:]])
+        miss = lvlh_state(energy, rows[-1], ocp.sf) - problem.xf
+        err = jnp.stack([safe_norm(miss[:3]), safe_norm(miss[3:])])
+        # coasting points have v = 0 exactly: the norm's derivative must be 0 there, not NaN
+        return v, rows, jnp.sum(nlp.c * safe_norm(v, axis=1)) * unit, err
 
-    v, U, X, dv, err = outputs(res.nu, res.eps)
-    ve, Ue, _, dve, erre = outputs(res.nu_energy, jnp.asarray(1.0, nlp.d.dtype))
-    a_si = L * n**2
-    energy_cost = 0.5 * jnp.sum(c * jnp.sum((nlp.umax * ve) ** 2, axis=1) / nlp.umax) \
-        * a_si**2 / n
-    sf = m.breaks[-1]
-    lam = jax.vmap(lambda s: hcw_flow(sf - s).T @ res.nu)(m.points.reshape(-1))
-    duration = problem.duration + 0.0 * dv
-    trajectory = Segmented(
-        mesh=mesh, duration=duration, times=keep(m.points / n), node_controls=keep(U * a_si),
-        node_costates=keep((L * n * lam / scale).reshape(K, npts, 6)),
-        state_times=keep(m.state_points / n), node_states=keep(X * scale))
+    v, rows, dv, err = outputs(res.nu, res.eps)
+    ve, _, dve, erre = outputs(res.nu_energy, jnp.asarray(1.0, nlp.d.dtype))
+    a_si = control_scale(energy)
+    U, Ue = nlp.umax * v, nlp.umax * ve
+    energy_cost = 0.5 * jnp.sum(nlp.c * jnp.sum(ve**2, axis=1)) * nlp.umax * a_si * unit
+    lam = (nlp.cond.costates(res.nu) / tr.mesh.grid.weights[None, :, None]).reshape(K * n, 6)
+    costates = unit * jax.vmap(
+        lambda p, s: jax.vjp(lambda x: model_state(energy, x, s), jnp.zeros(6))[1](p)[0])(
+            lam, rows_s[:-1])
+    w = safe_norm(v, axis=1)
+    states = keep(to_lvlh(rows, rows_s))
+    row_idx = collocated_rows(grid)
+    trajectory = Collocated(
+        grid=grid, times=chief.t[row_idx],
+        dt_dtau=0.5 * (ocp.sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[row_idx]),
+        node_controls=keep(U * a_si), node_costates=keep(costates), state_times=chief.t,
+        node_states=states, polynomial=states, s0=ocp.s0, sf=ocp.sf, orbit=problem.orbit,
+        clock="tabulated" if problem.model == "j2" else "true-anomaly")
+    accuracy = collocation_accuracy(energy, grid, rows, U)
+    for name in ("constraint_violation", "violation_position", "violation_velocity"):
+        accuracy.pop(name)            # the bound's own measure is path_violation
     return Solution(
-        problem=problem, status=jnp.where(valid, res.status, Status.INVALID_INPUT).astype(
-            jnp.int32),
-        cost=keep(dv), duration=duration, trajectory=trajectory,
-        stats=dict(node_throttle=keep(jnp.linalg.norm(v, axis=1).reshape(K, npts)),
-                   node_primers=keep(primers(res.nu, E, c).reshape(K, npts, 3)),
+        problem=problem, status=res.status, cost=keep(dv),
+        duration=problem.duration + 0.0 * dv, trajectory=trajectory,
+        stats=dict(node_throttle=keep(w.reshape(K, n)),
+                   node_primers=keep(primers(res.nu, nlp.E, nlp.c).reshape(K, n, 3)),
                    fuel=keep(rocket_fuel(dv, problem)),
                    energy_node_controls=keep(Ue * a_si), energy_dv=keep(dve),
                    energy_fuel=keep(rocket_fuel(dve, problem)), energy_cost=keep(energy_cost),
                    eps=res.eps, multipliers=keep(res.nu), energy_multipliers=keep(res.nu_energy),
+                   partial_throttle=jnp.sum((w > 1e-9) & (w < 1.0 - 1e-9)),
                    terminal_error=keep(err), energy_terminal_error=keep(erre),
                    homotopy_steps=res.steps, failed_steps=res.failed_steps,
                    newton_iterations=res.newton_iterations,
-                   **collocation_accuracy(problem, nlp, X, U)),
+                   **accuracy, **(extra or {})),
         method="homotopy")

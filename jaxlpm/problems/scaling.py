@@ -9,15 +9,15 @@ to have a finite derivative at zero (a transfer from rest at the chief, r0 = 0, 
 import jax.numpy as jnp
 
 
-def _norm(v):
-    """|v| with derivative 0 (not NaN) at v = 0."""
-    sq = jnp.sum(v * v)
+def safe_norm(v, axis=None):
+    """|v| (over `axis`, default all) with derivative 0 (not NaN) at v = 0."""
+    sq = jnp.sum(v * v, axis=axis)
     return jnp.where(sq > 0.0, jnp.sqrt(jnp.where(sq > 0.0, sq, 1.0)), 0.0)
 
 
 def length_scale(problem):
     """L = max(|r0|, |rf|, 1 m) of a problem with LVLH boundary states x0, xf."""
-    return jnp.maximum(jnp.maximum(_norm(problem.x0[:3]), _norm(problem.xf[:3])), 1.0)
+    return jnp.maximum(jnp.maximum(safe_norm(problem.x0[:3]), safe_norm(problem.xf[:3])), 1.0)
 
 
 def state_scale(problem):

@@ -1,7 +1,8 @@
-"""Trajectories of collocated solutions: how a `Solution` on one grid (`Collocated`) or on a
-segmented mesh (`Segmented`) is evaluated at a time t (s since the start).
+"""Trajectories of collocated solutions: how a `Solution` on one grid or on a segmented LGR
+mesh (`Collocated`) is evaluated at a time t (s since the start).
 
-`Collocated`: the grid's state polynomial over its support (`jaxlpm.collocation.Grid`) and the
+`Collocated`: the grid's state polynomial over its support (a `jaxlpm.collocation.Grid`, or an
+`LGRMesh`: one polynomial per segment) and the
 barycentric control interpolant over its collocation points, in the grid coordinate tau in
 [-1, 1]. How t maps to tau is the `clock`, the independent variable s the family was
 transcribed in (s = s0 + (sf - s0) (tau + 1) / 2):
@@ -12,10 +13,6 @@ transcribed in (s = s0 + (sf - s0) (tau + 1) / 2):
 The polynomial's coordinates are LVLH or, for Mei 2010's laws, Tschauner-Hempel states
 (converted to LVLH at f). A constant-thrust family sets `magnitude` > 0: the engine flies the
 interpolated direction at that magnitude (Duan & Dong 2011, §4).
-
-`Segmented`: K segments of one LGR grid (`SegmentedMesh`, breaks as fractions of the
-duration), each its own polynomial and interpolant, the time uniform within a segment; the
-control may jump at a break (a segment boundary belongs to the later segment).
 
 `flight_control()` gives the control as the function a propagator calls inside its right-hand
 side (`ControlInterpolant`): of the chief's anomaly integrated beside the state for the
@@ -30,7 +27,7 @@ import jax
 import jax.numpy as jnp
 
 from ..collocation import Grid, barycentric_interpolate
-from ..collocation.segments import LGRMesh, SegmentedMesh
+from ..collocation.segments import LGRMesh
 from ..orbits import th_to_lvlh, true_anomaly_from_time
 
 CLOCKS = ("true-anomaly", "uniform", "tabulated")
@@ -216,78 +213,3 @@ class Collocated:
                                        self.state_times[-1], self.magnitude, "time")
         return control_interpolant(self.grid, self.node_controls, self.s0, self.sf,
                                    self.magnitude, "anomaly")
-
-
-@jax.tree_util.register_dataclass
-@dataclass(frozen=True)
-class SegmentedControl:
-    """u(t) on a segmented mesh: the segment holding t (breaks in s), then its barycentric
-    interpolant over the LGR points."""
-
-    grid: Grid
-    breaks: jax.Array
-    values: jax.Array
-    variable: str = _static("time")
-
-    def __call__(self, t):
-        k = jnp.clip(jnp.searchsorted(self.breaks, t, side="right") - 1, 0,
-                     self.breaks.shape[-1] - 2)
-        tau = 2.0 * (t - self.breaks[k]) / (self.breaks[k + 1] - self.breaks[k]) - 1.0
-        return self.grid.interpolate_control(jnp.take(self.values, k, axis=0), tau)
-
-
-@jax.tree_util.register_dataclass
-@dataclass(frozen=True)
-class Segmented:
-    """A solution on a `SegmentedMesh` (module docstring): K segments of lgr(n).
-
-    mesh           the mesh, breaks as fractions of the duration
-    duration       the transfer time (s)
-    times          (K, n) times of the collocation points (s)
-    node_controls  (K, n, 3) controls (m/s^2); node_costates (K, n, 6) costates (SI)
-    state_times    (K, n + 1) times of each segment's state rows (its points and end break)
-    node_states    (K, n + 1, 6) LVLH states (m, m/s)
-    """
-
-    mesh: SegmentedMesh
-    duration: jax.Array
-    times: jax.Array
-    node_controls: jax.Array
-    node_costates: jax.Array
-    state_times: jax.Array
-    node_states: jax.Array
-
-    @property
-    def grid(self):
-        return self.mesh
-
-    def _locate(self, t):
-        b = self.mesh.breaks
-        frac = t / self.duration
-        k = jnp.clip(jnp.searchsorted(b, frac, side="right") - 1, 0, b.shape[-1] - 2)
-        return k, 2.0 * (frac - b[k]) / (b[k + 1] - b[k]) - 1.0
-
-    def _interpolate(self, values, t, state=False):
-        k, tau = self._locate(t)
-        g = self.mesh.grid
-        rows = jnp.take(values, k, axis=0)
-        return g.interpolate_state(rows, tau) if state else g.interpolate_control(rows, tau)
-
-    def state(self, t):
-        return self._interpolate(self.node_states, t, state=True)
-
-    def control(self, t):
-        return self._interpolate(self.node_controls, t)
-
-    def costate(self, t):
-        return self._interpolate(self.node_costates, t)
-
-    def delta_v(self):
-        """int |u| dt (m/s) by each segment's quadrature."""
-        h = 0.5 * self.duration[..., None] * jnp.diff(self.mesh.breaks, axis=-1)
-        speed = jnp.linalg.norm(self.node_controls, axis=-1)
-        return jnp.sum(h[..., None] * self.mesh.grid.weights * speed, axis=(-2, -1))
-
-    def flight_control(self) -> SegmentedControl:
-        return SegmentedControl(self.mesh.grid, self.mesh.breaks * self.duration,
-                                self.node_controls)

@@ -1,22 +1,41 @@
-"""Fuel-optimal bounded-thrust transfers on HCW (`jaxlpm.problems.fuel_optimal`) by segmented
-LGR collocation and the energy-to-fuel homotopy (`jaxlpm.nlp.homotopy`), with mesh
-refinement at the switching times (Yue & Duan 2016's pipeline: an energy-optimal Radau
-pseudospectral solution, then the homotopy to the bang-bang fuel optimum).
+"""Fuel-optimal bounded-thrust transfers (`jaxlpm.problems.fuel_optimal`) on the linear
+(Tschauner-Hempel, HCW at e = 0), two-body and J2 models by segmented LGR collocation and the
+energy-to-fuel homotopy (`jaxlpm.nlp.homotopy`), with mesh refinement at the switching times
+(Yue & Duan 2016's pipeline: an energy-optimal Radau pseudospectral solution, then the
+homotopy to the bang-bang fuel optimum).
 
 `jaxlpm.solve(problem, mesh)` (`run`): one mesh (jit; vmap over problems and meshes of one
 shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy tolerance
-(`refine_transfer`). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method,
-shooting on the costates with the smoothed switching law, continued in eps from the LGR costates.
-`refine_fuel_optimal(problems, segments, points)`: host-side passes over meshes with a break at
-every switching time of the previous solution (`aligned_breaks`), the first mesh uniform, until
-the fuel changes by less than `fuel_tol` (relative); a batch of problems is one vmapped call
-per pass.
+(`refine_transfer`). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method on
+the linear model, shooting on the costates with the smoothed switching law, continued in eps
+from the LGR costates. `refine_fuel_optimal(problems, segments, points)`: host-side passes over
+meshes with a break at every switching time of the previous solution (`aligned_breaks`), the
+first mesh uniform, until the fuel changes by less than `fuel_tol` (relative); a batch of
+problems is one vmapped call per pass.
 
-Switching function (the primer vector from the costates): on HCW the costate obeys
-lambda' = -A^T lambda exactly, and the final-state multiplier nu gives the primer
-p(s) = -B^T exp(A^T (s_f - s)) nu, |p| the switching function (threshold 1; rho = 1 - |p| in the
-paper's eq. 34). At the collocation points the estimates p_i = -E_i^T nu / c_i (the LGR costate
-estimates, Garg et al. 2010) agree with it to the mesh's accuracy. Burn arcs are where |p| > 1.
+Nonlinear models (successive linearisation): the homotopy runs on the condensed problem
+linearised about the collocated states of the previous run (the first about the chief itself,
+x = 0: the linearised model), warm-started from its eps = 1 multipliers, until the states move
+by at most `HomotopyOptions.linearisation_tol` (then the nonlinear collocation equations hold:
+status SUCCESS) or `max_linearisations` runs (MAX_ITERATIONS). On the linear model one run is
+exact.
+
+Derivatives: the solution is differentiated by the implicit function theorem
+(`jaxlpm.implicit.root`) on r(nu) = sum_i E_i v_i(nu) - d = 0 at the final eps, together with
+the fixed point of the linearisation, X = X(nu; X), on the nonlinear models. The fuel is
+differentiable where no collocation point sits inside the smoothed throttle's transition
+(stats["partial_throttle"] = 0; its slope there is 1 / (2 eps)): a parameter change that
+moves a switch across a collocation point changes the discrete switching structure, and the
+derivative of the bang-bang fuel is that of the mesh's current structure.
+
+Switching function: the primer vector p = -lambda_v / (n dt/ds) (`primer`). On the linear model
+the costate obeys lambda' = -A(s)^T lambda exactly and the final-state multiplier nu gives
+p(s) = -(k^2 / (n rho)) [Phi(s_f, s)^T nu]_v (Phi the Yamanaka-Ankersen STM, rho = 1 + e cos f;
+on HCW p(s) = -B^T exp(A^T (s_f - s)) nu). At the collocation points the estimates
+p_i = -E_i^T nu / c_i (the LGR costate estimates, Garg et al. 2010) agree with it to the mesh's
+accuracy; on the nonlinear models `primer` interpolates them. The engine fires where |p| > 1;
+`burn_arcs` and the switches that the refinement aligns the mesh with are read from the firing
+collocation points (`_burn_runs`).
 """
 
 import dataclasses
@@ -29,28 +48,46 @@ import numpy as np
 from ..compilation import compiled
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
-from ..collocation.segments import SegmentedMesh, aligned_breaks, segmented_lgr, uniform_breaks
-from ..dynamics import hcw_flow
-from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem,
-                                     hcw_input_matrices, rocket_fuel, to_nlp, to_solution)
-from ..problems.scaling import length_scale, state_scale
-from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel
+from ..collocation.segments import (LGRMesh, SegmentedMesh, aligned_breaks, segmented_lgr,
+                                   uniform_breaks)
+from ..dynamics import yamanaka_ankersen_stm
+from ..dynamics.chief import kepler_final_anomaly
+from ..implicit import root
+from ..orbits import time_from_true_anomaly, true_anomaly_from_time
+from ..problems.energy_optimal import control_scale, lvlh_state, model_state
+from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, delta_v_unit,
+                                     rocket_fuel, to_solution, transcribe)
+from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel, residual, run_homotopy
 from ..solution import Solution
 from ..status import Status
 from .family import FamilySolver
 
 MIN_POINTS = 3
-MAX_SWITCHES = 16          # switching times found per solution (burn arcs = switches / 2)
-SCAN_POINTS = 20001        # samples of |p(t)| searched for switches (then bisection)
+BURNING = 1e-9             # a collocation point fires where its throttle exceeds this
+
+
+def _input_gain(f, e):
+    """B(f) of the solver's Tschauner-Hempel state: [0; I / rho^3] (`_th_dynamics`)."""
+    return jnp.concatenate([jnp.zeros((3, 3)), jnp.eye(3) / (1.0 + e * jnp.cos(f)) ** 3])
+
+
+def _exact_primer(sol, t):
+    problem = sol.problem
+    o = problem.orbit
+    f = true_anomaly_from_time(o, t)
+    phi = yamanaka_ankersen_stm(sol.trajectory.sf, f, problem.duration - t, o.e, o.k2)
+    lam = phi.T @ sol.stats["multipliers"]
+    return -(o.k2 / (o.mean_motion * (1.0 + o.e * jnp.cos(f)))) * lam[3:]
 
 
 def primer(sol, t):
-    """Primer vector p(t) (3,) of a fuel-optimal `Solution` from its costates (module
-    docstring), t in s since the start."""
-    n = sol.problem.orbit.mean_motion
-    _, B = hcw_input_matrices()
-    flow = hcw_flow(n * (sol.problem.duration - t))
-    return -B.T @ flow.T @ sol.stats["multipliers"]
+    """Primer vector p(t) (3,) of a fuel-optimal `Solution` (module docstring), t in s since
+    the start: exact from the multipliers on the linear model, the interpolated collocation
+    point estimates on the nonlinear ones."""
+    if sol.problem.model == "linear":
+        return _exact_primer(sol, t)
+    tr = sol.trajectory
+    return tr.grid.interpolate_control(sol.stats["node_primers"].reshape(-1, 3), tr.tau(t))
 
 
 def switching_function(sol, t):
@@ -58,12 +95,76 @@ def switching_function(sol, t):
     return 1.0 - jnp.linalg.norm(primer(sol, t))
 
 
+def _rows(X):
+    """The collocation points' state rows (K n, 6) of state rows X (K, n + 1, 6)."""
+    return X[:, :-1].reshape(-1, X.shape[-1])
+
+
+def _linearisations(tr, options: HomotopyOptions):
+    """(nlp, homotopy result, reference, runs, last change): the homotopy on the condensed
+    problem `nlp` linearised about the collocation states `reference` (K n, 6), relinearised
+    about its solution until the states settle (module docstring). The result solves `nlp`
+    itself: the homotopy's residual is ill-conditioned at a point inside the throttle's
+    transition (slope 1 / (2 eps)), so it is not re-evaluated on a later linearisation."""
+    def run_at(ref, nu0):
+        nlp = tr.linearised(ref)
+        res = run_homotopy(nlp.E, nlp.c, nlp.d, nu0, options)
+        return nlp, res, _rows(nlp.states(res.nu, res.eps))
+
+    ref = jnp.zeros((tr.mesh.n_points, 6), tr.ocp.params["x0"].dtype)
+    nlp, res, X = run_at(ref, jnp.zeros_like(tr.ocp.params["x0"]))
+    change = jnp.max(jnp.abs(X - ref))
+    if tr.problem.model == "linear":
+        return nlp, res, ref, jnp.asarray(1), jnp.zeros_like(change)
+
+    def going(state):
+        _, res, _, _, k, change = state
+        ok = (res.status == Status.SUCCESS) | (res.status == Status.STALLED)
+        return ok & (k < options.max_linearisations) & (change > options.linearisation_tol)
+
+    def body(state):
+        _, res, _, ref, k, _ = state
+        nlp, res, X = run_at(ref, res.nu_energy)
+        return nlp, res, ref, X, k + 1, jnp.max(jnp.abs(X - ref))
+
+    nlp, res, ref, _, runs, change = jax.lax.while_loop(
+        going, body, (nlp, res, ref, X, jnp.asarray(1), change))
+    return nlp, res, ref, runs, change
+
+
+def _optimality(z, problem, mesh, eps):
+    """F(z) = 0 at the solution: r(nu) on the final linearisation and, on the nonlinear
+    models, the fixed point ref - X(nu; ref) of its reference states."""
+    if problem.model == "linear":
+        nlp = transcribe(problem, mesh).linearised(jnp.zeros((mesh.n_points, 6)))
+        return residual(z, nlp.E, nlp.c, nlp.d, eps)
+    nu, ref = z
+    nlp = transcribe(problem, mesh).linearised(ref)
+    return residual(nu, nlp.E, nlp.c, nlp.d, eps), ref - _rows(nlp.states(nu, eps))
+
+
+@root(_optimality, zero_nonfinite=True)
+def _differentiable(z, problem, mesh, eps):
+    """The solved z, with derivatives by the implicit function theorem on `_optimality`."""
+    return z
+
+
 def _fuel_optimal_transfer(problem, mesh, options):
     valid = problem.validity()
     problem = problem.sanitized(valid)
-    nlp = to_nlp(problem, mesh)
-    return to_solution(problem, mesh, nlp, energy_to_fuel(nlp.E, nlp.c, nlp.d, options=options),
-                       valid)
+    tr = transcribe(problem, mesh)
+    nlp, res, ref, runs, change = jax.lax.stop_gradient(_linearisations(tr, options))
+    status = jnp.where(
+        (problem.model != "linear") & (res.status == Status.SUCCESS)
+        & (change > options.linearisation_tol), Status.MAX_ITERATIONS, res.status)
+    status = jnp.where(valid & tr.ok, status, Status.INVALID_INPUT).astype(jnp.int32)
+    if problem.model == "linear":
+        nu = _differentiable(res.nu, problem, mesh, res.eps)
+    else:
+        nu, ref = _differentiable((res.nu, ref), problem, mesh, res.eps)
+    res = dataclasses.replace(res, nu=nu, status=status)
+    return to_solution(tr, tr.linearised(ref), res, valid,
+                       extra=dict(linearisations=runs, linearisation_change=change))
 
 
 _compiled = compiled(_fuel_optimal_transfer, static_argnames="options")
@@ -72,10 +173,19 @@ _compiled = compiled(_fuel_optimal_transfer, static_argnames="options")
 DEFAULT_SEGMENTS, DEFAULT_POINTS = 24, 8     # Yue & Duan 2016's mesh
 
 
+def _segmented(mesh):
+    """A solution's `LGRMesh` (breaks in tau) as the `SegmentedMesh` it was built from."""
+    if isinstance(mesh, LGRMesh):
+        return SegmentedMesh(breaks=0.5 * (mesh.breaks + 1.0), grid=mesh.segment)
+    return mesh
+
+
 def check_grid(mesh, method):
+    mesh = _segmented(mesh)
     if not isinstance(mesh, SegmentedMesh):
         raise ValueError(f"the grid of a fuel-optimal transfer is a SegmentedMesh "
-                         f"(segmented_lgr(breaks, n), breaks as fractions of the duration), "
+                         f"(segmented_lgr(breaks, n), breaks as fractions of [s0, s_f]) or a "
+                         f"solution's LGRMesh, "
                          f"got {type(mesh).__name__}")
     if mesh.grid.n < MIN_POINTS:
         raise ValueError(f"fuel-optimal transfers need at least {MIN_POINTS} LGR points per "
@@ -83,15 +193,18 @@ def check_grid(mesh, method):
     if is_concrete(mesh.breaks):
         b = np.asarray(mesh.breaks)
         if b.ndim == 1 and not (abs(b[0]) < 1e-15 and abs(b[-1] - 1.0) < 1e-15):
-            raise ValueError(f"mesh breaks are fractions of the transfer time: they must run "
+            raise ValueError(f"mesh breaks are fractions of the transfer (of its anomaly span "
+                             f"[s0, s_f]; of its time on a circular chief): they must run "
                              f"from 0 to 1, got [{b[0]}, {b[-1]}]")
 
 
 def run(problem, mesh, method, options: HomotopyOptions) -> Solution:
-    """Solve on one segmented LGR mesh whose breaks are fractions of the transfer time (from
-    0 to 1). jit-compiled once per mesh shape and options; vmap-able over problems and
-    meshes. Traced bad input gives INVALID_INPUT."""
-    return _compiled(problem, mesh, options)      # traced too: one program, not op by op
+    """Solve on one segmented LGR mesh whose breaks are fractions of the independent
+    variable's span [s0, s_f] (from 0 to 1; of the transfer time on a circular chief).
+    jit-compiled once per mesh shape and options; vmap-able over problems and
+    meshes. A solution's own `grid` (an `LGRMesh` in tau) is accepted too. Traced bad input
+    gives INVALID_INPUT."""
+    return _compiled(problem, _segmented(mesh), options)      # traced too: one program, not op by op
 
 
 REFINE_SEGMENTS = (DEFAULT_SEGMENTS, 48, 96)
@@ -111,12 +224,11 @@ def refine_transfer(problem, options, judge, segments=REFINE_SEGMENTS,
     def solve_on(breaks):
         return judge(run(problem, segmented_lgr(breaks, points), "homotopy", options))
 
-    T = float(problem.duration)
     solution, done = solve_on(uniform_breaks(0.0, 1.0, segments[0])), 1
     for count in (count for count in segments for _ in range(passes)):
         if int(solution.status) != Status.INACCURATE:
             break
-        solution = solve_on(aligned_breaks(0.0, 1.0, count, switching_times(solution) / T))
+        solution = solve_on(aligned_breaks(0.0, 1.0, count, switching_fractions(solution)))
         done += 1
     return solution.replace(stats=dict(solution.stats, mesh_passes=done))
 
@@ -144,22 +256,23 @@ class IndirectSolution:
 
 
 def _indirect(problem, breaks, nu0, nodes, weights, options):
-    n = problem.orbit.mean_motion
-    scale, L = state_scale(problem), length_scale(problem)
-    umax = problem.max_acceleration / (L * n**2)
-    sf = n * problem.duration
-    _, B = hcw_input_matrices()
-    h = 0.5 * jnp.diff(breaks * sf)
-    s = (breaks[:-1, None] * sf + h[:, None] * (nodes[None] + 1.0)).reshape(-1)
+    o, energy = problem.orbit, problem.energy_problem()
+    s0, sf = o.f0, kepler_final_anomaly(o, problem.duration)
+    h = 0.5 * jnp.diff(breaks * (sf - s0))
+    f = (s0 + breaks[:-1, None] * (sf - s0) + h[:, None] * (nodes[None] + 1.0)).reshape(-1)
     W = (h[:, None] * weights[None]).reshape(-1)
-    flow = jax.vmap(lambda si: hcw_flow(sf - si) @ B)(s)
-    E, c = umax * flow * W[:, None, None], umax * W
-    x0, xf = problem.x0 / scale, problem.xf / scale
-    d = xf - hcw_flow(sf) @ x0
+    T = problem.duration
+    flow = jax.vmap(lambda fi: yamanaka_ankersen_stm(
+        sf, fi, T - time_from_true_anomaly(o, fi), o.e, o.k2) @ _input_gain(fi, o.e))(f)
+    rate = o.mean_motion / (o.k2 * (1.0 + o.e * jnp.cos(f)) ** 2)       # n dt/df
+    umax = problem.max_acceleration / control_scale(energy)
+    E, c = umax * flow * W[:, None, None], umax * W * rate
+    x0, xf = model_state(energy, problem.x0, s0), model_state(energy, problem.xf, sf)
+    d = xf - yamanaka_ankersen_stm(sf, s0, T, o.e, o.k2) @ x0
     res = energy_to_fuel(E, c, d, nu0, options)
     v = controls(res.nu, E, c, res.eps)
-    dv = jnp.sum(c * jnp.linalg.norm(v, axis=1)) * L * n
-    miss = (jnp.einsum("iab,ib->a", E, v) - d) * scale
+    dv = jnp.sum(c * jnp.linalg.norm(v, axis=1)) * delta_v_unit(problem)
+    miss = lvlh_state(energy, jnp.einsum("iab,ib->a", E, v) - d, sf)
     return IndirectSolution(
         multipliers=res.nu, eps=res.eps, dv=dv, fuel=rocket_fuel(dv, problem),
         terminal_error=jnp.stack([jnp.linalg.norm(miss[:3]), jnp.linalg.norm(miss[3:])]),
@@ -171,25 +284,29 @@ _indirect_compiled = compiled(_indirect, static_argnames="options")
 
 def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points: int = 8,
                           options: HomotopyOptions = HomotopyOptions()) -> IndirectSolution:
-    """The indirect method (Yue & Duan 2016 §2.2): Pontryagin's conditions with the smoothed
-    switching law, shooting on the costates, continued in eps from eps = 1.
+    """The indirect method (Yue & Duan 2016 §2.2) on the linear model: Pontryagin's
+    conditions with the smoothed switching law, shooting on the costates, continued in eps
+    from eps = 1.
 
-    The costate of HCW is lambda(s) = exp(A^T (s_f - s)) nu (`hcw_flow`), so shooting on
-    lambda(0) is shooting on nu (one-to-one); the control is the law of
-    `jaxlpm.problems.fuel_optimal` on
-    the primer p(s) = -B^T lambda_v(s), and the shooting residual
-    x(s_f) - xf = exp(A s_f) x0 + int exp(A (s_f - s)) B u(p(s)) ds - xf is integrated by
-    Gauss-Legendre quadrature (`points` nodes) on panels with the given breaks (fractions of
-    t_f from 0 to 1; put breaks at the switching times so each panel is smooth). nu0: the
-    first guess (the LGR solution's `energy_multipliers`: the paper's initialisation from the
-    pseudospectral costates). Shares the homotopy and Newton solver of the direct method: the
-    two differ only in how the state equation is discretised (exact flow and quadrature here,
-    LGR collocation there)."""
+    The Tschauner-Hempel costate is lambda(f) = Phi(f_f, f)^T nu (Phi the Yamanaka-Ankersen
+    STM; on HCW exp(A^T (s_f - s)) nu), so shooting on lambda(0) is shooting on nu (one-to-
+    one); the control is the law of `jaxlpm.problems.fuel_optimal` on the primer (module
+    docstring), and the shooting residual x(f_f) - xf = Phi(f_f, f0) x0 + int Phi(f_f, f)
+    B(f) u(p(f)) df - xf is integrated by Gauss-Legendre quadrature (`points` nodes) on panels
+    with the given breaks (fractions of [f0, f_f] from 0 to 1, those of a solution's mesh; put
+    breaks at the switching times so each panel is smooth). nu0: the first guess (the LGR
+    solution's `energy_multipliers`: the paper's initialisation from the pseudospectral
+    costates). Shares the homotopy and Newton solver of the direct method: the two differ only
+    in how the state equation is discretised (exact flow and quadrature here, LGR collocation
+    there)."""
     require_x64()
     check_fuel_problem(problem)
+    if problem.model != "linear":
+        raise ValueError(f"indirect_fuel_optimal shoots on the linear model's exact flow, got "
+                         f"model {problem.model!r}")
     b = np.asarray(breaks, dtype=np.float64)
     if b.ndim != 1 or b.size < 2 or not np.all(np.diff(b) > 0) or b[0] != 0.0 or b[-1] != 1.0:
-        raise ValueError("breaks must increase strictly from 0 to 1 (fractions of t_f)")
+        raise ValueError("breaks must increase strictly from 0 to 1 (fractions of [f0, f_f])")
     if isinstance(points, bool) or not isinstance(points, int) or points < 1:
         raise ValueError(f"points must be a positive integer, got {points!r}")
     nodes, weights = lg_nodes_weights(points)
@@ -200,36 +317,65 @@ def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points
                               jnp.asarray(weights), options)
 
 
+def _burn_runs(sol: Solution):
+    """[(start, end)] of the burns as fractions of [s0, s_f] (unbatched solution): the runs
+    of collocation points that fire (throttle > 0), each point standing for its quadrature
+    cell (the cumulative LGR weights of its segment). A run's end point with a partial
+    throttle w fires for the fraction w of its cell, on the run's side; a run of one point is
+    centred on it; a run that reaches an end of the transfer burns from (to) it. This impulse-equivalent estimate is the discrete solution's own: a
+    bang-bang optimum on a mesh puts one partial point at each switch, where |p| sits within
+    eps of 1, so the primer's crossing lies at that point and not at the switch."""
+    grid = sol.grid
+    b = 0.5 * (np.asarray(grid.breaks) + 1.0)
+    cells = np.concatenate([[0.0], np.cumsum(np.asarray(grid.segment.weights))]) / 2.0
+    lo = (b[:-1, None] + np.diff(b)[:, None] * cells[None, :-1]).reshape(-1)
+    hi = (b[:-1, None] + np.diff(b)[:, None] * cells[None, 1:]).reshape(-1)
+    w = np.asarray(sol.stats["node_throttle"]).reshape(-1)
+    on = w > BURNING
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
+    runs = []
+    for i, j in zip(edges[::2], edges[1::2] - 1):
+        if i == j:
+            half = 0.5 * w[i] * (hi[i] - lo[i])
+            start, end = 0.5 * (lo[i] + hi[i]) - half, 0.5 * (lo[i] + hi[i]) + half
+        else:
+            start, end = hi[i] - w[i] * (hi[i] - lo[i]), lo[j] + w[j] * (hi[j] - lo[j])
+        # a run at an end of the transfer burns from (to) that end
+        runs.append((0.0 if i == 0 else start, 1.0 if j == w.size - 1 else end))
+    return runs
+
+
 @compiled
-def _primer_norm(sol, ts):
-    return jax.vmap(lambda t: jnp.linalg.norm(primer(sol, t)))(ts)
+def _times(sol, fractions):
+    """Times (s) at fractions of [s0, s_f]: each segment's interpolated state-row times."""
+    tr = sol.trajectory
+    return jax.vmap(lambda f: tr.grid.interpolate_state(tr.state_times, 2.0 * f - 1.0))(
+        fractions)
 
 
-def switching_times(sol: Solution, max_switches: int = MAX_SWITCHES):
-    """Times (s, ascending NumPy array) where |p(t)| crosses 1 (unbatched solution): a scan
-    of SCAN_POINTS samples, then 60 bisections of each bracketed crossing."""
-    T = float(sol.problem.duration)
-    ts = np.linspace(0.0, T, SCAN_POINTS)
-    f = np.asarray(_primer_norm(sol, jnp.asarray(ts))) - 1.0
-    idx = np.nonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)[0][:max_switches]
-    lo, hi = ts[idx], ts[idx + 1]
-    flo = f[idx]
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        fm = np.asarray(_primer_norm(sol, jnp.asarray(mid))) - 1.0 if mid.size else mid
-        left = np.sign(fm) == np.sign(flo)
-        lo, hi, flo = np.where(left, mid, lo), np.where(left, hi, mid), np.where(left, fm, flo)
-    return 0.5 * (lo + hi)
+def switching_fractions(sol: Solution):
+    """The switches (burn starts and ends inside the transfer, `burn_arcs`) as fractions of
+    [s0, s_f], the coordinates of a mesh's breaks: ascending NumPy array (unbatched)."""
+    runs = _burn_runs(sol)
+    sw = [x for arc in runs for x in arc if 0.0 < x < 1.0]
+    return np.sort(np.asarray(sw, dtype=np.float64))
+
+
+def switching_times(sol: Solution):
+    """The switching times (s since the start, ascending NumPy array; unbatched solution):
+    `switching_fractions` in time."""
+    sw = switching_fractions(sol)
+    return np.asarray(_times(sol, jnp.asarray(sw))) if sw.size else sw
 
 
 def burn_arcs(sol: Solution):
-    """[(start, end)] (s) of the burns: the arcs where |p(t)| > 1 (unbatched solution)."""
-    T = float(sol.problem.duration)
-    sw = switching_times(sol)
-    edges = np.concatenate([[0.0], sw, [T]])
-    mids = 0.5 * (edges[:-1] + edges[1:])
-    on = np.asarray(_primer_norm(sol, jnp.asarray(mids))) > 1.0
-    return [(float(a), float(b)) for a, b, burn in zip(edges[:-1], edges[1:], on) if burn]
+    """[(start, end)] (s) of the burns (unbatched solution; `_burn_runs`: the collocation
+    points that fire, switches at their impulse-equivalent edges)."""
+    runs = _burn_runs(sol)
+    if not runs:
+        return []
+    t = np.asarray(_times(sol, jnp.asarray(np.asarray(runs, dtype=np.float64).reshape(-1))))
+    return [(float(a), float(b)) for a, b in t.reshape(-1, 2)]
 
 
 def _member(tree, i):
@@ -270,10 +416,7 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
             break
         new = []
         for i in range(size[0]):
-            member = _member(sol, i)
-            T = float(member.problem.duration)
-            sw = switching_times(member) / T
-            new.append(aligned_breaks(0.0, 1.0, segments, sw))
+            new.append(aligned_breaks(0.0, 1.0, segments, switching_fractions(_member(sol, i))))
         breaks = np.stack(new)
     stats = dict(sol.stats, passes=np.full(size[0], len(fuels)),
                  fuel_by_pass=np.stack(fuels, axis=1), fuel_change=change)
