@@ -30,7 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..collocation.segments import aligned_breaks
-from ..constants import G0, MU_EARTH, R_EARTH
+from ..constants import G0, J2_EARTH, MU_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
 from ..problems.fuel_optimal import FuelOptimalTransfer
 from ..solvers.fuel_optimal import burn_arcs, indirect_fuel_optimal, primer, refine_fuel_optimal
@@ -86,7 +86,7 @@ def problems(thrust=THRUST_MAX, revolutions=1.0, targets_km=TARGETS_KM):
     return FuelOptimalTransfer(
         orbit=jax.tree_util.tree_map(full, o), x0=jnp.zeros((size, 6)), xf=jnp.asarray(xf),
         duration=full(revolutions) * o.period, thrust_max=full(thrust), mass=full(MASS),
-        isp=full(ISP))
+        isp=full(ISP), j2=full(J2_EARTH), r_eq=full(R_EARTH))
 
 
 def _member(tree, i):
@@ -94,9 +94,13 @@ def _member(tree, i):
 
 
 def node_weights(sol):
-    """Quadrature weights (s) of the collocation points of one solution, (K, n)."""
-    h = 0.5 * np.diff(np.asarray(sol.grid.breaks)) * float(sol.duration)
-    return h[:, None] * np.asarray(sol.grid.grid.weights)[None]
+    """Quadrature weights in time (s) of the collocation points of one solution, (K n,)."""
+    return np.asarray(sol.grid.weights) * np.asarray(sol.trajectory.dt_dtau)
+
+
+def fraction_breaks(sol):
+    """The mesh's breaks of one solution (its LGRMesh, in tau) as fractions of the transfer."""
+    return 0.5 * (np.asarray(sol.grid.breaks) + 1.0)
 
 
 def burns(sol):
@@ -162,7 +166,7 @@ def compute(log=print):
     members = [_member(sol, i) for i in range(len(keys))]
     indirect = {}
     for i, k in enumerate(keys):
-        b = aligned_breaks(0.0, 1.0, INDIRECT_PANELS, np.asarray(sol.grid.breaks[i][1:-1]))
+        b = aligned_breaks(0.0, 1.0, INDIRECT_PANELS, fraction_breaks(members[i])[1:-1])
         ind, dti = _timed(indirect_fuel_optimal, _member(probs, i), b,
                           members[i].stats["energy_multipliers"])
         indirect[k] = {"fuel_g": 1e3 * float(ind.fuel), "dv_mps": float(ind.dv),
@@ -206,7 +210,7 @@ def compute(log=print):
                                for f in st["fuel_by_pass"].T],
             "relative_change_last_pass": {k: float(st["fuel_change"][i])
                                           for i, k in enumerate(keys)},
-            "breaks_s": {k: (np.asarray(sol.grid.breaks[i]) * T).tolist()
+            "breaks_s": {k: (fraction_breaks(members[i]) * T).tolist()
                          for i, k in enumerate(keys)},
         },
         "indirect": indirect,
@@ -236,8 +240,9 @@ NOTES = [
     "The burns sit at the two ends of the transfer. For (0,8,0) the switching function is "
     "clean (|p| - 1 = 6.8e-3 at t = 0, crossing 1 at 80 s with a slope of ~9e-5 per s). For "
     "(0,+-4,0) the primer touches 1 very flatly (|p| - 1 ~ 1e-6 over the burns): at eps = "
-    "1e-6 the throttle inside those burns is partly fractional (0.23-0.3 N) and the arcs where "
-    "|p| > 1 are longer than Delta-v / u_max (full_thrust_equivalent_s); the fuel is "
+    "1e-6 the throttle inside those burns is partly fractional (0.23-0.3 N) and the burns "
+    "(the runs of firing points) are longer than Delta-v / u_max (full_thrust_equivalent_s); "
+    "the fuel is "
     "insensitive to this (< 1e-7 relative between eps = 1e-6 and ~1e-10, where the homotopy "
     "stalls on this mesh, status STALLED).",
 ]

@@ -385,8 +385,9 @@ def _member(tree, i):
 def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, points: int = 8,
                         fuel_tol: float = 1e-4, max_passes: int = 5,
                         options: HomotopyOptions = HomotopyOptions()) -> Solution:
-    """Solve a batch of problems (leading axis on every array leaf; one problem: add it with
-    `jax.tree_util.tree_map(lambda x: x[None], p)`) on `segments` LGR segments of `points`
+    """Solve a batch of problems (leading axis on every array leaf but scalars, which the
+    members share; one problem: add it with `jax.tree_util.tree_map(lambda x: x[None], p)`)
+    on `segments` LGR segments of `points`
     points: first a uniform mesh, then meshes with breaks at the previous switching times,
     until every member's fuel changes by less than fuel_tol (relative) or max_passes.
     Each pass is one vmapped call. Returns the last pass's batched `Solution`, its stats
@@ -399,6 +400,9 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
     size = np.shape(problems.duration)
     if len(size) != 1:
         raise ValueError(f"problems must carry one leading batch axis, got duration shape {size}")
+    # scalar leaves (a default such as j2, or one orbit for all) are shared by every member
+    problems = jax.tree_util.tree_map(
+        lambda x: jnp.broadcast_to(x, size) if np.ndim(x) == 0 else x, problems)
     for i in range(size[0]):
         _member(problems, i).validate()
     grid_mesh = segmented_lgr(uniform_breaks(0.0, 1.0, segments), points)
