@@ -42,6 +42,7 @@ from .solvers.finite_burn import FiniteBurnOptions  # noqa: E402
 from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # noqa: E402
                                    refine_fuel_optimal, switching_function, switching_times)
 from .solvers.lqr import hcw_lqr  # noqa: E402
+from .solvers.min_time_condensed import CondensedOptions, min_time_shooting  # noqa: E402
 from .solvers.riccati import CareSolution, care  # noqa: E402
 from .status import Status, describe  # noqa: E402
 from . import batch, compilation, design, io, nlp, plot, verify  # noqa: E402
@@ -51,7 +52,7 @@ __version__ = "0.2.0"
 
 __all__ = [
     "DEFAULT_LADDER", "DEFAULT_TOLERANCE", "LGRMesh", "MeshLadder", "Tolerance", "lgr_mesh",
-    "ALOptions", "ApproachCone", "CareSolution", "EnergyOptimalTransfer", "FiniteBurnIntercept",
+    "ALOptions", "ApproachCone", "CareSolution", "CondensedOptions", "EnergyOptimalTransfer", "FiniteBurnIntercept",
     "FiniteBurnOptions", "FuelOptimalTransfer", "Grid", "HomotopyOptions",
     "ImpulsiveIntercept", "KeepOutEllipsoid", "KeplerOrbit", "LQRTransfer", "LambertSolution",
     "MinimumTimeTransfer", "NewtonOptions", "OptimalControlProblem", "PassiveSafety",
@@ -59,6 +60,6 @@ __all__ = [
     "Solution", "SolveError", "SpeedLimit", "Status", "ThrustLimit", "__version__", "aligned_breaks", "batch", "burn_arcs",
     "care", "compilation", "constants", "describe", "design", "hcw_lqr",
     "indirect_fuel_optimal", "io", "lambert", "lg",
-    "lgl", "lgr", "make_grid", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lgr",
+    "lgl", "lgr", "make_grid", "min_time_shooting", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lgr",
     "solve", "switching_function", "switching_times", "uniform_breaks", "verify",
 ]

@@ -335,18 +335,19 @@ def scaled_rows(solution):
     return X, solution.node_controls / control_scale(problem)
 
 
-def collocation_accuracy(problem: EnergyOptimalTransfer, grid, X, U):
+def collocation_accuracy(problem: EnergyOptimalTransfer, grid, X, U, control_map=None):
     """`jaxlpm.solution.accuracy` stats (SI, LVLH) of the solution with scaled state rows X
     and controls U on `grid` (the units of `transfer_ocp`): the GPOPS-II estimate on the
     check mesh, whose chief is sampled at the check points, the errors mapped to LVLH
-    (`lvlh_state` is linear in the state at a given anomaly)."""
+    (`lvlh_state` is linear in the state at a given anomaly). control_map: applied to the
+    interpolated control before it is flown (a constant-magnitude engine's direction)."""
     check = check_mesh(grid)
     # the defects and the flight need the model alone: the constraints are checked in SI by
     # `safety_stats`, with their own (denser) drift samples
     ocp_check, chief_check, _ = transfer_ocp(problem.replace(constraints=()), check)
-    d = collocation_defects(ocp_check, check, grid, X, U)
+    d = collocation_defects(ocp_check, check, grid, X, U, control_map=control_map)
     # the linear model's flight is linear: one Newton step solves it
-    flown = check_flight(ocp_check, check, grid, X, U,
+    flown = check_flight(ocp_check, check, grid, X, U, control_map=control_map,
                          newton_steps=1 if problem.model == "linear" else 4)
     to_si = jax.vmap(jax.vmap(lambda x, s: lvlh_state(problem, x, s)))
     stats = accuracy_stats(to_si(flown - d.states, d.s), d.relative)

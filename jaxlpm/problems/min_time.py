@@ -26,7 +26,7 @@ spent at the engine's rate. The minimum time can be well above it (the along-tra
 -3/2 n x_c gathered on the way must be undone too: 2.8 t_lb for the 0.01 N case of the tests).
 """
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import jax
 import jax.numpy as jnp
@@ -34,8 +34,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import Checked, Rule, coerce_sequences
+from ..constants import J2_EARTH, R_EARTH
 from ..dynamics import hcw_matrix
 from ..orbits import KeplerOrbit
+from .energy_optimal import MODELS, perigee_above_surface
 from .scaling import length_scale, state_scale
 from ..nlp.accuracy import check_flight, check_mesh, collocation_defects, unit_direction
 from ..nlp.ocp import OptimalControlProblem
@@ -49,12 +51,16 @@ from ..solution.accuracy import accuracy_stats
 class MinimumTimeTransfer(Checked):
     """Minimise the transfer time t_f (s) from x0 to xf at constant thrust (module docstring).
 
-    orbit            the chief's circular `KeplerOrbit` (e = 0: HCW; SI, rad); t = 0 at its
-                     epoch
+    orbit            the chief's `KeplerOrbit` (SI, rad); t = 0 at its epoch. The method
+                     "augmented-lagrangian" takes a circular one (e = 0, HCW); "condensed"
+                     any (`jaxlpm.solvers.min_time_condensed`)
     x0, xf           LVLH states [x, y, z, vx, vy, vz] (m, m/s; x radial outward, y
                      along-track, z orbit normal)
     thrust, mass     constant thrust magnitude (N) and mass (kg, held constant)
     duration_bounds  [t_min, t_max] (s; inf allowed; None: [0, inf))
+    model            "linear" (HCW on a circular chief, Tschauner-Hempel on an eccentric
+                     one), "two-body" or "j2" (static; `jaxlpm.problems.energy_optimal`)
+    j2, r_eq         the J2 coefficient and equatorial radius (m) of the "j2" model
     """
 
     orbit: KeplerOrbit
@@ -63,8 +69,12 @@ class MinimumTimeTransfer(Checked):
     thrust: jax.Array
     mass: jax.Array
     duration_bounds: jax.Array = None
+    model: str = field(default="linear", metadata=dict(static=True))
+    j2: jax.Array = J2_EARTH
+    r_eq: jax.Array = R_EARTH
 
-    SHAPES = {"x0": (6,), "xf": (6,), "thrust": (), "mass": (), "duration_bounds": (2,)}
+    SHAPES = {"x0": (6,), "xf": (6,), "thrust": (), "mass": (), "duration_bounds": (2,),
+              "j2": (), "r_eq": ()}
 
     def __post_init__(self):
         if self.duration_bounds is None:
@@ -87,11 +97,18 @@ class MinimumTimeTransfer(Checked):
     def rules(self):
         """Validity rules, written once (`jaxlpm._validation.Checked`)."""
         lo, hi = self.bounds[0], self.bounds[1]
-        return [*self.orbit.rules(),
-                Rule("orbit.e", self.orbit.e == 0.0,
-                     "0: minimum-time transfers use the HCW equations (circular chief)"),
-                Rule("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
-                Rule("xf", jnp.all(jnp.isfinite(self.xf)), "finite (m, m/s)"),
+        rules = [*self.orbit.rules(),
+                 Rule("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
+                 Rule("xf", jnp.all(jnp.isfinite(self.xf)), "finite (m, m/s)"),
+                 Rule("j2", jnp.isfinite(self.j2), "finite"),
+                 Rule("r_eq", jnp.isfinite(self.r_eq) & (self.r_eq > 0.0),
+                      "a positive equatorial radius in m")]
+        if self.model != "linear":
+            rules.append(Rule("orbit", perigee_above_surface(self.orbit.a, self.orbit.e,
+                                                             self.r_eq),
+                              f"an orbit whose perigee a (1 - e) is above r_eq on the "
+                              f"{self.model!r} model"))
+        return [*rules,
                 Rule("thrust", jnp.isfinite(self.thrust) & (self.thrust > 0.0),
                      "positive and finite (N)"),
                 Rule("mass", jnp.isfinite(self.mass) & (self.mass > 0.0),
@@ -101,12 +118,23 @@ class MinimumTimeTransfer(Checked):
                 Rule("xf", jnp.any(self.x0 != self.xf),
                      "different from x0 (the minimum time of no transfer is 0)")]
 
+    def static_rules(self) -> None:
+        """The model, then the fields' shapes (`Checked.static_rules`)."""
+        if self.model not in MODELS:
+            raise ValueError(f"model must be one of {MODELS}, got {self.model!r}")
+        super().static_rules()
+
+    def is_hcw(self):
+        """True where the transfer is on HCW (the linear model of a circular chief)."""
+        return (self.model == "linear") & (self.orbit.e == 0.0)
+
     def harmless(self) -> "MinimumTimeTransfer":
         """A valid transfer (100 m along-track from rest, 1 N on 100 kg)."""
         return MinimumTimeTransfer(
             orbit=self.orbit.harmless(), x0=jnp.zeros(6),
             xf=jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), thrust=1.0, mass=100.0,
-            duration_bounds=jnp.array([0.0, jnp.inf]))
+            duration_bounds=jnp.array([0.0, jnp.inf]), model=self.model, j2=0.0,
+            r_eq=R_EARTH)
 
 
 def _dynamics(s, x, u, data, p):

@@ -7,8 +7,9 @@ compiled solver; every family returns a `Solution`.
 |-------------------------|-----------------------------------------|-----------------------|
 | `EnergyOptimalTransfer` | "kkt", "stm" (linear model, LGL grids), | lgl(65)               |
 |                         | "newton" (any model and grid)           |                       |
-| `MinimumTimeTransfer`   | "augmented-lagrangian"                  | lg(32)                |
-| `FuelOptimalTransfer`   | "homotopy"                              | 24 LGR segments of 8  |
+| `MinimumTimeTransfer`   | "augmented-lagrangian" (HCW),           | lg(32) (HCW),         |
+|                         | "condensed" (any e and model)           | 16 LGR segments of 8  |
+| `FuelOptimalTransfer`   | "homotopy" (any e and model)            | 24 LGR segments of 8  |
 | `LQRTransfer`           | "riccati" (exact Riccati sweep)         | 512 steps (an int)    |
 | `ImpulsiveIntercept`    | "shooting" (Lambert + J2 Newton)        | none (grid=None)      |
 | `FiniteBurnIntercept`   | "augmented-lagrangian" (LGL burn arc)   | lgl(5)                |
@@ -32,10 +33,12 @@ def solve(problem, grid=None, *, method=None, options=None, tolerance=None,
           throw=True) -> Solution:
     """Solve a transfer problem of any family; returns a `Solution` (SI; module table).
 
-    grid: a `Grid` (lgl(n), lg(n), lgr(n): n points) or, for fuel-optimal transfers, a
-    `SegmentedMesh` (breaks as fractions of the duration); None: the family's default.
-    method: None for the family's default. options: the method's frozen options object
-    (`NewtonOptions`, `ALOptions`, `HomotopyOptions`) or None for its defaults.
+    grid: a `Grid` (lgl(n), lg(n), lgr(n): n points), an `LGRMesh`, or, for fuel-optimal
+    transfers and minimum-time method "condensed", a `SegmentedMesh` (breaks as fractions of
+    the transfer's anomaly span); None: the family's default. method: None for the family's
+    default (minimum time: "condensed" on a `SegmentedMesh`). options: the method's frozen
+    options object (`NewtonOptions`, `ALOptions`, `HomotopyOptions`, `CondensedOptions`) or
+    None for its defaults.
     tolerance: a `Tolerance` (SI: position m, velocity m/s; None: `DEFAULT_TOLERANCE`): a
     converged solution whose error estimate between the nodes exceeds it is INACCURATE.
     throw: an unbatched, concrete solve that does not end SUCCESS raises `SolveError` (its

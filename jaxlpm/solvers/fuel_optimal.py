@@ -255,7 +255,10 @@ class IndirectSolution:
     newton_iterations: jax.Array
 
 
-def _indirect(problem, breaks, nu0, nodes, weights, options):
+def exact_linear_nlp(problem: FuelOptimalTransfer, breaks, nodes, weights):
+    """(E, c, d) of the condensed problem (`FuelNLP`'s) on the linear model's exact flow: the
+    Yamanaka-Ankersen STM from each quadrature node to f_f times the input gain, Gauss nodes
+    and weights on panels with the given breaks (fractions of [f0, f_f]), no collocation."""
     o, energy = problem.orbit, problem.energy_problem()
     s0, sf = o.f0, kepler_final_anomaly(o, problem.duration)
     h = 0.5 * jnp.diff(breaks * (sf - s0))
@@ -266,9 +269,15 @@ def _indirect(problem, breaks, nu0, nodes, weights, options):
         sf, fi, T - time_from_true_anomaly(o, fi), o.e, o.k2) @ _input_gain(fi, o.e))(f)
     rate = o.mean_motion / (o.k2 * (1.0 + o.e * jnp.cos(f)) ** 2)       # n dt/df
     umax = problem.max_acceleration / control_scale(energy)
-    E, c = umax * flow * W[:, None, None], umax * W * rate
     x0, xf = model_state(energy, problem.x0, s0), model_state(energy, problem.xf, sf)
-    d = xf - yamanaka_ankersen_stm(sf, s0, T, o.e, o.k2) @ x0
+    return (umax * flow * W[:, None, None], umax * W * rate,
+            xf - yamanaka_ankersen_stm(sf, s0, T, o.e, o.k2) @ x0)
+
+
+def _indirect(problem, breaks, nu0, nodes, weights, options):
+    energy = problem.energy_problem()
+    sf = kepler_final_anomaly(problem.orbit, problem.duration)
+    E, c, d = exact_linear_nlp(problem, breaks, nodes, weights)
     res = energy_to_fuel(E, c, d, nu0, options)
     v = controls(res.nu, E, c, res.eps)
     dv = jnp.sum(c * jnp.linalg.norm(v, axis=1)) * delta_v_unit(problem)

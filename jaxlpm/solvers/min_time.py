@@ -33,27 +33,30 @@ import math
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ..compilation import compiled
+from .._validation import is_concrete
 from ..collocation import Grid, lg
-from ..collocation.segments import LGRMesh
-from ..linalg import cholesky_solve, small_spd_solve
+from ..collocation.segments import LGRMesh, SegmentedMesh
+from ..linalg import cholesky_solve
 from ..dynamics import hcw_flow
 from ..problems.min_time import (MinimumTimeTransfer, duration_lower_bound, energy_ocp,
                                  min_time_ocp, to_solution)
 from ..nlp.ocp import PathPenalty
+from ..nlp.reachable import support, support_minimiser
 from ..nlp.transcription import equality, pack, state_tau, unpack
 from ..status import Status
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
 from ..nlp.condensed import CondensedSecondOrder
 from ..nlp.newton import DenseKKT, newton_step
 from ..solution import Solution
+from . import min_time_condensed
 from .family import FamilySolver
+from .min_time_condensed import CondensedOptions
 from .refine import MeshLadder, refine
 
 MIN_POINTS = {"LGL": 4, "LG": 3, "LGR": 3}
-DUAL_ITERATIONS = 30       # Newton on p: quadratic where the primer has no zero at a point, and
-#                            where it has one (a kink of F) the value still settles to round-off
 DURATION_ITERATIONS = 50   # Newton on log S (a handful where log F* is smooth in log S)
 DURATION_TOL = 1e-12       # relative step in S at which Newton stops: near the round-off of
 #                            the quadrature sum, so a resolved transfer's guess is the
@@ -70,58 +73,11 @@ def _target(S, params):
     return params["xf"] - hcw_flow(S) @ params["x0"]
 
 
-def _support(S, p, grid):
-    """F_S(p) by the grid's quadrature."""
-    v = jnp.einsum("kia,i->ka", _primer_basis(S, grid), p)
-    return 0.5 * S * grid.weights @ jnp.linalg.norm(v, axis=1)
-
-
-def _complement(d):
-    """(6, 5) orthonormal columns orthogonal to d: the Householder reflection taking e_1 to
-    -sign(d_1) d / |d|, less its first column."""
-    v = d / jnp.linalg.norm(d)
-    v = v.at[0].add(jnp.where(v[0] >= 0.0, 1.0, -1.0))
-    return (jnp.eye(6, dtype=d.dtype) - 2.0 * jnp.outer(v, v) / (v @ v))[:, 1:]
-
-
 def _dual(S, params, grid):
-    """p* = argmin F_S(p) subject to p . d(S) = 1 (see the module docstring): p = p0 + Z y,
-    Z^T d = 0, Newton on y with gradient sum_i w_i (PZ)_i v^_i and Hessian
-    sum_i w_i (PZ)_i (I - v^_i v^_i^T) (PZ)_i^T / |v_i| (v^ = v / |v|, w_i the quadrature
-    weights times S / 2)."""
-    d = _target(S, params)
-    P = _primer_basis(S, grid)
-    w = 0.5 * S * grid.weights
-    p0 = small_spd_solve(jnp.einsum("k,kia,kja->ij", w, P, P), d)[0]   # the Gramian's
-    p0 = p0 / (p0 @ d)
-    Z = _complement(d)
-    v0 = jnp.einsum("kia,i->ka", P, p0)
-    PZ = jnp.einsum("kia,ij->kja", P, Z)
-
-    def f(y):
-        return w @ jnp.linalg.norm(v0 + jnp.einsum("kja,j->ka", PZ, y), axis=1)
-
-    def newton(y, _):
-        v = v0 + jnp.einsum("kja,j->ka", PZ, y)
-        r = jnp.linalg.norm(v, axis=1)
-        u = v / r[:, None]
-        g = jnp.einsum("k,kja,ka->j", w, PZ, u)
-        curv = jnp.eye(3, dtype=v.dtype) - u[:, :, None] * u[:, None, :]
-        H = jnp.einsum("k,kia,kab,kjb->ij", w / r, PZ, curv, PZ)
-        step = -small_spd_solve(H, g)[0]
-        fy, slope = f(y), g @ step
-
-        def halve(t):
-            return 0.5 * t[0], t[1] + 1
-
-        alpha, _ = jax.lax.while_loop(
-            lambda t: (f(y + t[0] * step) > fy + 1e-4 * t[0] * slope) & (t[1] < 60),
-            halve, (jnp.ones((), y.dtype), 0))
-        y_new = y + alpha * step
-        return jnp.where(f(y_new) <= fy, y_new, y), None
-
-    y, _ = jax.lax.scan(newton, jnp.zeros(5, d.dtype), None, length=DUAL_ITERATIONS)
-    return p0 + Z @ y
+    """p* = argmin F_S(p) subject to p . d(S) = 1 (see the module docstring;
+    `jaxlpm.nlp.reachable.support_minimiser` with the quadrature weights times S / 2)."""
+    return support_minimiser(_primer_basis(S, grid), 0.5 * S * grid.weights,
+                             _target(S, params))
 
 
 def _duration(params, grid, S0, lo, hi):
@@ -130,7 +86,8 @@ def _duration(params, grid, S0, lo, hi):
 
     def log_margin(u, p):                          # log(a~ F_S(p) / p . d(S)), S = e^u
         S = jnp.exp(u)
-        return jnp.log(a * _support(S, p, grid) / (p @ _target(S, params)))
+        return jnp.log(a * support(_primer_basis(S, grid), 0.5 * S * grid.weights, p)
+                       / (p @ _target(S, params)))
 
     def body(state):
         u, _, k = state
@@ -208,7 +165,7 @@ def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
 
 
 def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
-    valid = problem.validity()
+    valid = problem.validity() & problem.is_hcw()
     # t_max below the proven lower bound: infeasible before any solve, which is skipped (it
     # runs on the harmless problem, like invalid input: the AL would spend its whole penalty
     # schedule failing)
@@ -247,6 +204,8 @@ augmented Lagrangian's inner KKT systems are dense)."""
 
 
 def check_grid(grid, method):
+    if method == "condensed":
+        return min_time_condensed.check_grid(grid, method)
     if isinstance(grid, LGRMesh):
         if grid.segment.n < MIN_POINTS["LGR"]:
             raise ValueError(f"minimum-time transfers need at least {MIN_POINTS['LGR']} LGR "
@@ -261,35 +220,69 @@ def check_grid(grid, method):
 
 
 def refine_transfer(problem, options, judge, ladder: MeshLadder = LADDER):
-    """`solve(problem)` without a grid: the augmented Lagrangian on the `LADDER` of `LGRMesh`
-    shapes, segments split where the estimate is largest (`jaxlpm.solvers.refine`), until
-    the estimate meets the tolerance. Each rung starts from its own minimum-time guess of
-    the linear system (module docstring), which already carries the duration and the
-    primer directions of the transfer: it needs no warm start from the rung before."""
+    """`solve(problem)` without a grid. Method "condensed" (`CondensedOptions`): its uniform
+    meshes (`min_time_condensed.refine_transfer`). Method "augmented-lagrangian": the
+    `LADDER` of `LGRMesh` shapes, segments split where the estimate is largest
+    (`jaxlpm.solvers.refine`), until the estimate meets the tolerance. Each rung starts from
+    its own minimum-time guess of the linear system (module docstring), which already carries
+    the duration and the primer directions of the transfer: it needs no warm start from the
+    rung before."""
+    if isinstance(options, CondensedOptions):
+        return min_time_condensed.refine_transfer(problem, options, judge)
     options = ALOptions() if options is None else options
     return refine(lambda mesh, z0: run(problem, mesh, "augmented-lagrangian", options),
                   lambda solution, mesh: None, ladder, judge)
 
 
-def run(problem, grid, method, options: ALOptions) -> Solution:
-    """Solve a `MinimumTimeTransfer` on `grid` (LGL, LG, LGR or an `LGRMesh`) by the
-    augmented-Lagrangian solver; outputs in SI (LVLH, m, m/s, m/s^2, s). jit-compiled once
-    per grid size (and options); vmap- and grad-able (implicit differentiation at the KKT
-    point). Traced bad input gives status INVALID_INPUT and zeroed outputs.
+def _hcw(problem) -> bool:
+    """The problem is concretely HCW (the augmented-Lagrangian method's case); a traced one
+    counts as HCW when its model is "linear" (its eccentric members are then INVALID_INPUT:
+    a batch of eccentric chiefs passes a SegmentedMesh, method "condensed")."""
+    if problem.model != "linear":
+        return False
+    return not is_concrete(problem.orbit.e) or bool(np.all(np.asarray(problem.orbit.e) == 0.0))
 
-    INFEASIBLE only where infeasibility is shown: t_max below `duration_lower_bound` (then
-    no solve runs: outputs zero, stats["duration_lower_bound"] the bound), or the AL's
-    certificate (the violation stalls with the penalty at its cap) with the t_max bound
-    active. Any other such stall ends STALLED. Without duration bounds every request is
-    feasible (HCW is controllable with every eigenvalue on the imaginary axis, so bounded
-    thrust reaches any state from any state; Lee & Markus 1967): a stall there typically
-    means a grid too coarse for the transfer's revolutions (the state oscillates once per
-    orbit, and a global polynomial needs several points per orbit: 64 LG points resolve the
-    5 orbits of a 0.01 N transfer in the tests, 16 do not)."""
+
+def run(problem, grid, method, options) -> Solution:
+    """Solve a `MinimumTimeTransfer` on `grid`; outputs in SI (LVLH, m, m/s, m/s^2, s).
+
+    Method "augmented-lagrangian" (HCW: model "linear", e = 0), on LGL, LG, LGR or an
+    `LGRMesh`: jit-compiled once per grid size (and options); vmap- and grad-able (implicit
+    differentiation at the KKT point). Traced bad input gives status INVALID_INPUT and zeroed
+    outputs. INFEASIBLE only where infeasibility is shown: t_max below
+    `duration_lower_bound` (then no solve runs: outputs zero, stats["duration_lower_bound"]
+    the bound), or the AL's certificate (the violation stalls with the penalty at its cap)
+    with the t_max bound active. Any other such stall ends STALLED. Without duration bounds
+    every request is feasible (HCW is controllable with every eigenvalue on the imaginary
+    axis, so bounded thrust reaches any state from any state; Lee & Markus 1967): a stall
+    there typically means a grid too coarse for the transfer's revolutions (the state
+    oscillates once per orbit, and a global polynomial needs several points per orbit: 64 LG
+    points resolve the 5 orbits of a 0.01 N transfer in the tests, 16 do not).
+
+    Method "condensed" (every model and eccentricity), on a `SegmentedMesh`:
+    `jaxlpm.solvers.min_time_condensed.run`."""
+    if method == "condensed":
+        return min_time_condensed.run(problem, grid, method, options)
+    if is_concrete(problem.orbit.e) and not _hcw(problem):
+        raise ValueError("method 'augmented-lagrangian' solves HCW transfers (model 'linear', "
+                         "orbit.e = 0); method 'condensed' takes eccentric chiefs and the "
+                         "'two-body' and 'j2' models")
     return _compiled(problem, grid, options)      # traced too: one program, not op by op
 
 
-FAMILY = FamilySolver(problem=MinimumTimeTransfer, methods={"augmented-lagrangian": ALOptions},
-                      run=run, default_grid=lambda problem: lg(DEFAULT_POINTS),
-                      check_grid=check_grid, refine=refine_transfer,
-                      refine_method="augmented-lagrangian")
+def _default_grid(problem):
+    return lg(DEFAULT_POINTS) if _hcw(problem) else min_time_condensed.default_grid(problem)
+
+
+def _default_method(problem, grid):
+    if isinstance(grid, SegmentedMesh):
+        return "condensed"
+    return "augmented-lagrangian"
+
+
+FAMILY = FamilySolver(
+    problem=MinimumTimeTransfer,
+    methods={"augmented-lagrangian": ALOptions, "condensed": CondensedOptions},
+    run=run, default_grid=_default_grid, check_grid=check_grid,
+    default_method=_default_method, refine=refine_transfer,
+    refine_method=lambda problem: "augmented-lagrangian" if _hcw(problem) else "condensed")

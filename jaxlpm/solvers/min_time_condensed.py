@@ -1,0 +1,328 @@
+"""Minimum-time transfers (`jaxlpm.problems.min_time`) on the linear (Tschauner-Hempel, HCW at
+e = 0), two-body and J2 models: method "condensed", the reachable set of the condensed LGR
+transcription (`jaxlpm.problems.fuel_optimal.condensed_lgr`, `jaxlpm.nlp.reachable`).
+
+For a duration T the transcription of the fuel-optimal family (the energy-optimal transfer's
+scaled states and anomaly, a segmented LGR mesh with breaks as fractions of [s0, s_f(T)], the
+dynamics linearised at the collocation points) gives the final state as
+x_K = Phi x0 + o + sum_i E_i v_i, |v_i| <= 1 (v = u / u_max). The transfer is possible in T
+iff F*(T) = min_{p . d = 1} sum_i |E_i^T p| >= 1 (d = x_f - Phi x0 - o; `reachable`), and the
+minimum time solves F*(T) = 1: Newton on log F*(T) against log T, its derivative at fixed p*
+(the envelope theorem, differentiated through the transcription), from the rest-to-rest
+bang-bang time 2 sqrt(|dr| / a) + |dv| / a, inside [0, t_max]. At T* the engine fires at full
+thrust along the primers E_i^T p* (the minimiser's directions reach d exactly), the constant-
+thrust, free-direction optimum of Duan & Dong 2011. On the nonlinear models the dynamics are
+relinearised about each solution's states until they settle, as for the fuel-optimal family.
+
+Costates: the sensitivity of T* to the state, dT*/dd = p* / (dF*/dT) (F* = 1), carried back
+along the transcription by its discrete adjoint (`CondensedLGR.costates`).
+
+`min_time_shooting(problem)`: the same equation on the exact Yamanaka-Ankersen flow of the
+linear model with Gauss quadrature (no collocation): the shooting cross-check.
+"""
+
+from dataclasses import dataclass, replace
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._validation import is_concrete, require_x64
+from ..collocation import lg_nodes_weights
+from ..collocation.segments import LGRMesh, SegmentedMesh, segmented_lgr, uniform_breaks
+from ..compilation import compiled
+from ..nlp.accuracy import unit_direction
+from ..nlp.reachable import primer_directions, support, support_minimiser
+from ..nlp.transcription import collocated_rows
+from ..dynamics.chief import anomaly_rate
+from ..problems.energy_optimal import collocation_accuracy, lvlh_state, model_state
+from ..problems.fuel_optimal import FuelOptimalTransfer, transcribe
+from ..problems.min_time import MinimumTimeTransfer
+from ..solution import Collocated, Solution, zero_invalid
+from ..status import Status
+from .fuel_optimal import exact_linear_nlp
+
+MIN_POINTS = 3
+
+
+@dataclass(frozen=True)
+class CondensedOptions:
+    """Static settings of method "condensed" (hashable: one compiled solver per set).
+
+    duration_iterations  Newton steps on log T at most (a handful where log F* is smooth)
+    duration_tol         relative step in T at which they stop
+    max_linearisations   relinearisations of nonlinear dynamics at most
+    linearisation_tol    they stop when the collocated states move by at most this (solver
+                         units)
+    """
+
+    duration_iterations: int = 50
+    duration_tol: float = 1e-12
+    max_linearisations: int = 12
+    linearisation_tol: float = 1e-8
+
+
+def _fuel_twin(problem: MinimumTimeTransfer, duration) -> FuelOptimalTransfer:
+    """The bounded-thrust transfer of `duration` with the same engine and model, whose
+    transcription this method shares (its Isp is unused)."""
+    return FuelOptimalTransfer(problem.orbit, problem.x0, problem.xf, duration,
+                               problem.thrust, problem.mass, jnp.ones_like(problem.mass),
+                               model=problem.model, j2=problem.j2, r_eq=problem.r_eq)
+
+
+def _condensed(problem, mesh, T, ref):
+    """(transcription, FuelNLP) at duration T linearised at the collocation states ref."""
+    tr = transcribe(_fuel_twin(problem, T), mesh)
+    return tr, tr.linearised(ref)
+
+
+def _ones(nlp):
+    return jnp.ones(nlp.E.shape[0], nlp.E.dtype)
+
+
+def _log_margin(problem, mesh, T, ref, p):
+    """log(h_T(p) / p . d(T)): 0 where the unit-bounded control just reaches the target."""
+    _, nlp = _condensed(problem, mesh, T, ref)
+    return jnp.log(support(nlp.E, _ones(nlp), p) / (p @ nlp.d))
+
+
+def _duration(problem, mesh, ref, T0, hi, options):
+    """(T*, p*, d log F*/d log T at T*, converged): Newton on log F*(T) = 0 in log T, clipped
+    to (0, hi] (module docstring)."""
+    def minimiser(T):
+        _, nlp = _condensed(problem, mesh, T, ref)
+        return support_minimiser(nlp.E, _ones(nlp), nlp.d)
+
+    def margin(u, p):
+        return _log_margin(problem, mesh, jnp.exp(u), ref, p)
+
+    def body(state):
+        u, _, k, _ = state
+        p = jax.lax.stop_gradient(minimiser(jnp.exp(u)))
+        g, dg = jax.value_and_grad(margin)(u, p)
+        # where log F* is not increasing in log T, the step of F* ~ T^2
+        step = jnp.where(dg > 0, -g / dg, -0.5 * g)
+        u_new = jnp.minimum(u + step, jnp.log(hi))
+        u_new = jnp.where(jnp.isfinite(u_new), u_new, u)
+        return u_new, u_new - u, k + 1, g
+
+    u0 = jnp.minimum(jnp.log(T0), jnp.log(hi))
+    inf = jnp.asarray(jnp.inf, u0.dtype)
+    u, step, _, _ = jax.lax.while_loop(
+        lambda s: (jnp.abs(s[1]) > options.duration_tol) & (s[2] < options.duration_iterations),
+        body, (u0, inf, 0, inf))
+    T = jnp.exp(u)
+    p = minimiser(T)
+    g, dg = jax.value_and_grad(margin)(u, p)
+    return T, p, dg, (jnp.abs(g) <= 1e-9) & (jnp.abs(step) <= options.duration_tol)
+
+
+def _rows(X):
+    return X[:, :-1].reshape(-1, X.shape[-1])
+
+
+def _start(problem):
+    """2 sqrt(|dr| / a) + |dv| / a (s): the rest-to-rest bang-bang time plus the velocity
+    change at full thrust, a first duration."""
+    d = problem.xf - problem.x0
+    a = problem.acceleration
+    return 2.0 * jnp.sqrt(jnp.linalg.norm(d[:3]) / a) + jnp.linalg.norm(d[3:]) / a
+
+
+def _solve(problem, mesh, options):
+    """(T*, p*, dlogF/dlogT, reference states, converged, linearisations, change)."""
+    hi = jnp.where(jnp.isfinite(problem.bounds[1]), problem.bounds[1],
+                   1e3 * problem.orbit.period)
+    ref = jnp.zeros((mesh.n_points, 6), problem.x0.dtype)
+
+    def run_at(ref, T0):
+        T, p, dg, ok = _duration(problem, mesh, ref, T0, hi, options)
+        _, nlp = _condensed(problem, mesh, T, ref)
+        U = nlp.umax * primer_directions(nlp.E, p)
+        X = nlp.cond.states(nlp.x0, U.reshape(mesh.n_segments, mesh.grid.n, 3))
+        return T, p, dg, ok, _rows(X)
+
+    T, p, dg, ok, X = run_at(ref, _start(problem))
+    change = jnp.max(jnp.abs(X - ref))
+    if problem.model == "linear":
+        return T, p, dg, ref, ok, jnp.asarray(1), jnp.zeros_like(change)
+
+    def going(s):
+        return s[3] & (s[6] < options.max_linearisations) & (s[7] > options.linearisation_tol)
+
+    def body(s):
+        T, _, _, _, _, X, k, _ = s
+        T_new, p, dg, ok, X_new = run_at(X, T)
+        return T_new, p, dg, ok, X, X_new, k + 1, jnp.max(jnp.abs(X_new - X))
+
+    T, p, dg, ok, ref, _, k, change = jax.lax.while_loop(
+        going, body, (T, p, dg, ok, ref, X, jnp.asarray(1), change))
+    return T, p, dg, ref, ok, k, change
+
+
+def _min_time_condensed(problem, mesh, options):
+    valid = problem.validity() & (problem.bounds[0] == 0.0)
+    requested = problem
+    problem = jax.lax.stop_gradient(problem.sanitized(valid))
+    T, p, dg, ref, ok, runs, change = _solve(problem, mesh, options)
+    tr, nlp = _condensed(problem, mesh, T, ref)
+    K, n = mesh.n_segments, mesh.grid.n
+    U = nlp.umax * primer_directions(nlp.E, p)
+    X = nlp.cond.states(nlp.x0, U.reshape(K, n, 3))
+    rows = jnp.concatenate([X[:, :n].reshape(K * n, 6), X[-1, -1:]])
+    ocp, grid, chief = tr.ocp, tr.grid, tr.chief
+    energy = tr.problem.energy_problem()
+    hi = problem.bounds[1]
+    reached = jnp.max(jnp.abs(jnp.einsum("iab,ib->a", nlp.E, U / nlp.umax) - nlp.d))
+    status = jnp.select(
+        [~valid, ~tr.ok, (T >= hi * (1.0 - 1e-12)) & (reached > 1e-8),
+         ok & (change <= options.linearisation_tol)],
+        [Status.INVALID_INPUT, Status.NONFINITE, Status.INFEASIBLE, Status.SUCCESS],
+        Status.MAX_ITERATIONS).astype(jnp.int32)
+    # dT*/dd = p* / (dF*/dT) at F* = 1, F* = exp(g): dF*/dT = dg / T; d = x_f - Phi x0 - o,
+    # so dT*/dx0 = Phi^T nu with nu = -dT*/dd (the fuel family's convention)
+    lam = (nlp.cond.costates(-p * T / dg) / mesh.grid.weights[None, :, None]).reshape(K * n, 6)
+    rows_s = jnp.concatenate([nlp.mesh_s.points.reshape(-1), ocp.sf[None]])
+    costates = jax.vmap(
+        lambda q, s: jax.vjp(lambda x: model_state(energy, x, s), jnp.zeros(6))[1](q)[0])(
+            lam, rows_s[:-1])
+    states = jax.vmap(lambda x, s: lvlh_state(energy, x, s))(rows, rows_s)
+    idx = collocated_rows(grid)
+    a = problem.acceleration
+    trajectory = Collocated(
+        grid=grid, times=chief.t[idx],
+        dt_dtau=0.5 * (ocp.sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[idx]),
+        node_controls=U / nlp.umax * a, node_costates=costates, state_times=chief.t,
+        node_states=states, polynomial=states, s0=ocp.s0, sf=ocp.sf, orbit=problem.orbit,
+        magnitude=a, clock="tabulated" if problem.model == "j2" else "true-anomaly")
+    stats = dict(
+        node_directions=U / nlp.umax, primer_normal=p, duration_slope=dg,
+        terminal_residual=reached, linearisations=runs, linearisation_change=change,
+        **collocation_accuracy(energy, grid, rows, U,
+                               control_map=lambda u: nlp.umax * unit_direction(u)))
+    solution = Solution(problem=requested, status=status, cost=T, duration=T,
+                        trajectory=zero_invalid(valid, trajectory),
+                        stats=zero_invalid(valid, stats), method="condensed")
+    return replace(solution, cost=jnp.where(valid, T, 0.0), duration=jnp.where(valid, T, 0.0))
+
+
+_compiled = compiled(_min_time_condensed, static_argnames="options")
+
+DEFAULT_SEGMENTS, DEFAULT_POINTS = 16, 8
+REFINE_SEGMENTS = (16, 32, 64, 128)
+
+
+def segmented(mesh):
+    """A `SegmentedMesh`, or a solution's `LGRMesh` (breaks in tau) as one."""
+    if isinstance(mesh, LGRMesh):
+        return SegmentedMesh(breaks=0.5 * (mesh.breaks + 1.0), grid=mesh.segment)
+    return mesh
+
+
+def check_grid(mesh, method):
+    mesh = segmented(mesh)
+    if not isinstance(mesh, SegmentedMesh):
+        raise ValueError(f"the grid of method 'condensed' is a SegmentedMesh "
+                         f"(segmented_lgr(breaks, n), breaks as fractions of [s0, s_f]) or a "
+                         f"solution's LGRMesh, got {type(mesh).__name__}")
+    if mesh.grid.n < MIN_POINTS:
+        raise ValueError(f"method 'condensed' needs at least {MIN_POINTS} LGR points per "
+                         f"segment, got {mesh.grid.n}")
+
+
+def run(problem, mesh, method, options: CondensedOptions) -> Solution:
+    """Solve on one segmented LGR mesh (breaks as fractions of [s0, s_f] from 0 to 1, or a
+    solution's `LGRMesh`); outputs in SI (LVLH). jit-compiled once per mesh shape and options;
+    vmap-able. Not differentiated (a parameter's derivative of t_f: finite differences, or
+    the costates for the boundary states). t_min > 0 is not taken (a constant-thrust transfer
+    cannot stretch to a longer time): a ValueError when concrete, INVALID_INPUT when traced.
+    INFEASIBLE where t_max is too short (the target stays outside the reachable set)."""
+    if is_concrete(problem.duration_bounds) and np.any(np.asarray(problem.bounds)[..., 0] > 0):
+        raise ValueError("method 'condensed' takes duration_bounds [0, t_max] only (a constant-"
+                         "thrust transfer cannot be stretched to a longer time)")
+    return _compiled(problem, segmented(mesh), options)
+
+
+def refine_transfer(problem, options, judge, segments=REFINE_SEGMENTS,
+                    points: int = DEFAULT_POINTS):
+    """`solve(problem)` without a grid: uniform meshes of `segments` LGR segments of `points`
+    points until the estimate meets the tolerance (the constant-thrust direction is smooth:
+    no switches to align with); the last one's solution is INACCURATE otherwise. stats gain
+    mesh_passes."""
+    options = CondensedOptions() if options is None else options
+    for done, count in enumerate(segments, start=1):
+        solution = judge(run(problem, segmented_lgr(uniform_breaks(0.0, 1.0, count), points),
+                             "condensed", options))
+        if int(solution.status) != Status.INACCURATE:
+            break
+    return solution.replace(stats=dict(solution.stats, mesh_passes=done))
+
+
+def default_grid(problem):
+    return segmented_lgr(uniform_breaks(0.0, 1.0, DEFAULT_SEGMENTS), DEFAULT_POINTS)
+
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class ShootingSolution:
+    """Outcome of `min_time_shooting`: duration t_f (s), the primer normal p (solver units),
+    the terminal residual of the full-thrust control (solver units) and a flag."""
+
+    duration: jax.Array
+    primer_normal: jax.Array
+    terminal_residual: jax.Array
+    converged: jax.Array
+
+
+def _shooting(problem, breaks, nodes, weights, options):
+    twin = _fuel_twin(problem, 0.0)
+
+    def at(T):
+        return exact_linear_nlp(twin.replace(duration=T), breaks, nodes, weights)
+
+    def margin(u, p):
+        E, _, d = at(jnp.exp(u))
+        return jnp.log(support(E, jnp.ones(E.shape[0], E.dtype), p) / (p @ d))
+
+    def minimiser(T):
+        E, _, d = at(T)
+        return support_minimiser(E, jnp.ones(E.shape[0], E.dtype), d)
+
+    def body(s):
+        u, _, k = s
+        p = jax.lax.stop_gradient(minimiser(jnp.exp(u)))
+        g, dg = jax.value_and_grad(margin)(u, p)
+        step = jnp.where(dg > 0, -g / dg, -0.5 * g)
+        return u + step, step, k + 1
+
+    u, step, _ = jax.lax.while_loop(
+        lambda s: (jnp.abs(s[1]) > options.duration_tol) & (s[2] < options.duration_iterations),
+        body, (jnp.log(_start(problem)), jnp.asarray(jnp.inf), 0))
+    T = jnp.exp(u)
+    p = minimiser(T)
+    E, _, d = at(T)
+    res = jnp.max(jnp.abs(jnp.einsum("iab,ib->a", E, primer_directions(E, p)) - d))
+    return ShootingSolution(T, p, res, jnp.abs(step) <= options.duration_tol)
+
+
+_shooting_compiled = compiled(_shooting, static_argnames="options")
+
+
+def min_time_shooting(problem: MinimumTimeTransfer, breaks, points: int = 8,
+                      options: CondensedOptions = CondensedOptions()) -> ShootingSolution:
+    """The minimum time of a transfer on the linear model (HCW or Tschauner-Hempel) by
+    shooting: the reachable set's support function on the exact Yamanaka-Ankersen flow,
+    integrated by Gauss-Legendre quadrature (`points` nodes) on panels with the given breaks
+    (fractions of [f0, f_f] from 0 to 1), no collocation; the module docstring's equation
+    F*(T) = 1 solved the same way. An independent check of method "condensed"."""
+    require_x64()
+    problem.check()
+    if problem.model != "linear":
+        raise ValueError(f"min_time_shooting uses the linear model's exact flow, got model "
+                         f"{problem.model!r}")
+    b = np.asarray(breaks, dtype=np.float64)
+    if b.ndim != 1 or b.size < 2 or not np.all(np.diff(b) > 0) or b[0] != 0.0 or b[-1] != 1.0:
+        raise ValueError("breaks must increase strictly from 0 to 1 (fractions of [f0, f_f])")
+    nodes, weights = lg_nodes_weights(points)
+    return _shooting_compiled(problem, jnp.asarray(b), jnp.asarray(nodes),
+                              jnp.asarray(weights), options)
