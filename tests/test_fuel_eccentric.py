@@ -131,15 +131,16 @@ def test_j2_flown_reaches_target():
     assert np.all(np.asarray(flight.plan_error) < [tol.position, tol.velocity])
 
 
-@pytest.mark.parametrize("model", ["linear", "two-body"])
-def test_fuel_gradient_matches_finite_differences(model, linear, two_body):
+def test_fuel_gradient_matches_finite_differences(linear):
     """Implicit gradients at the final eps on the refined mesh (fixed): d fuel / d y_f and
     d fuel / d e against central differences. The fuel is smooth in the parameters while the
     switching structure on the mesh stays (no point enters or leaves the throttle's
     transition). Steps of 0.05 m and 1e-6 keep it and stay above the solve's noise (the
     homotopy's residual, ~1e-9 of L: smaller steps drift to 2e-5 at 1e-7); measured
-    agreement 1e-6 (linear) and 2e-6 (two-body), so 1e-5 is asserted."""
-    sol = linear if model == "linear" else two_body
+    agreement 1e-6, so 1e-5 is asserted. The two-body gradient (with the linearisation's
+    fixed point in the implicit system) compiles for ~40 s: experiments/fuel_gradients.py
+    checks it the same way (measured 1e-6 and 2e-6)."""
+    model, sol = "linear", linear
     mesh = segmented_lgr(fraction_breaks(sol), 8)
 
     def fuel(y, e):

@@ -4,8 +4,9 @@
 The case: 0.05 N on 200 kg (0.25 mm/s^2) from rest at the chief to (500, 3000, -100) m at
 rest; chief a = 10000 km, e = 0.3. Independent checks: the shooting solution on the exact
 Yamanaka-Ankersen flow (`min_time_shooting`: Gauss quadrature, no collocation), the HCW
-augmented-Lagrangian solver at e = 0 (in experiments/min_time_eccentric.py), the flight of the solution's own constant-thrust
-direction (`verify.fly`, Dopri8 rtol 1e-12), and finite differences for the costates.
+augmented-Lagrangian solver at e = 0 (in experiments/min_time_eccentric.py), the flight of
+the solution's own constant-thrust direction (`verify.fly`, Dopri8 rtol 1e-12), and finite
+differences for the costates.
 """
 
 import jax.numpy as jnp

@@ -202,3 +202,11 @@ def lgr_mesh(k: int, n: int, breaks=None) -> LGRMesh:
         raise ValueError(f"breaks must be {k + 1} strictly increasing values from -1 to 1, "
                          f"got {b}")
     return LGRMesh(breaks=jnp.asarray(b), segment=lgr(n))
+
+
+def as_segmented(mesh):
+    """A `SegmentedMesh` as it is; an `LGRMesh` (breaks in tau, e.g. a solution's grid) as the
+    `SegmentedMesh` of the same segments with breaks as fractions (tau + 1) / 2."""
+    if isinstance(mesh, LGRMesh):
+        return SegmentedMesh(breaks=0.5 * (mesh.breaks + 1.0), grid=mesh.segment)
+    return mesh

@@ -48,7 +48,7 @@ from ..linalg import dense_solve
 from ..nlp.homotopy import controls, primers
 from ..nlp.transcription import collocated_rows, collocation_s
 from ..orbits import KeplerOrbit
-from ..solution import Collocated, Solution
+from ..solution import Collocated, Solution, zero_invalid
 from . import safety
 from .scaling import safe_norm
 from .energy_optimal import (MODELS, EnergyOptimalTransfer, collocation_accuracy,
@@ -321,11 +321,37 @@ def delta_v_unit(problem: FuelOptimalTransfer):
     return control_scale(problem.energy_problem()) / problem.orbit.mean_motion
 
 
+def collocated_trajectory(tr: Transcription, nlp: FuelNLP, rows, controls_si, nu, unit,
+                          magnitude=0.0) -> Collocated:
+    """The `Collocated` trajectory (SI, LVLH) on the transcription's `LGRMesh`, with the
+    chief's clock: the scaled state rows `rows` (K n + 1, 6) in LVLH, the controls
+    `controls_si` (K n, 3) in m/s^2 (`magnitude` > 0: a constant-magnitude engine), and the
+    costates of the final-state multiplier nu: dJ/dx (J in units of `unit` per unit of the
+    solver's cost; `CondensedLGR.costates` over the LGR weights, mapped by the state's
+    scaling)."""
+    ocp, chief, energy = tr.ocp, tr.chief, tr.problem.energy_problem()
+    K, n = tr.mesh.n_segments, tr.mesh.grid.n
+    rows_s = jnp.concatenate([nlp.mesh_s.points.reshape(-1), ocp.sf[None]])
+    lam = (nlp.cond.costates(nu) / tr.mesh.grid.weights[None, :, None]).reshape(K * n, 6)
+    costates = unit * jax.vmap(
+        lambda p, s: jax.vjp(lambda x: model_state(energy, x, s), jnp.zeros(6))[1](p)[0])(
+            lam, rows_s[:-1])
+    states = jax.vmap(lambda x, s: lvlh_state(energy, x, s))(rows, rows_s)
+    idx = collocated_rows(tr.grid)
+    return Collocated(
+        grid=tr.grid, times=chief.t[idx],
+        dt_dtau=0.5 * (ocp.sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[idx]),
+        node_controls=controls_si, node_costates=costates, state_times=chief.t,
+        node_states=states, polynomial=states, s0=ocp.s0, sf=ocp.sf, orbit=tr.problem.orbit,
+        magnitude=jnp.asarray(magnitude, rows.dtype),
+        clock="tabulated" if tr.problem.model == "j2" else "true-anomaly")
+
+
 def to_solution(tr: Transcription, nlp: FuelNLP, res, valid, extra=None):
     """The `Solution` (SI, LVLH; `Collocated` on the mesh's `LGRMesh`, with the chief's clock)
     of the homotopy's result `res` on the condensed problem `nlp`: the eps-smoothed optimum's
     controls and states, cost = delta-v int |u| dt (m/s), costates dJ/dx (m/s per m and per
-    m/s: the LGR estimates of `CondensedLGR.costates`, mapped by the state's scaling), zeros where `valid` is False.
+    m/s; `collocated_trajectory`), zeros where `valid` is False.
 
     stats: node_throttle |u| / u_max (K, n), node_primers (the primer at the points), fuel
     (kg), the eps = 1 energy-like solution on the same mesh (energy_node_controls m/s^2,
@@ -340,12 +366,10 @@ def to_solution(tr: Transcription, nlp: FuelNLP, res, valid, extra=None):
     def keep(x):
         return jnp.where(valid, x, jnp.zeros_like(x))
 
-    problem, ocp, grid, chief = tr.problem, tr.ocp, tr.grid, tr.chief
+    problem, ocp, grid = tr.problem, tr.ocp, tr.grid
     energy = problem.energy_problem((safety.ThrustLimit(problem.max_acceleration),))
     K, n = tr.mesh.n_segments, tr.mesh.grid.n
     unit = delta_v_unit(problem)
-    rows_s = jnp.concatenate([nlp.mesh_s.points.reshape(-1), ocp.sf[None]])
-    to_lvlh = jax.vmap(lambda x, s: lvlh_state(energy, x, s))
 
     def outputs(nu, eps):
         v = controls(nu, nlp.E, nlp.c, eps)
@@ -361,19 +385,9 @@ def to_solution(tr: Transcription, nlp: FuelNLP, res, valid, extra=None):
     a_si = control_scale(energy)
     U, Ue = nlp.umax * v, nlp.umax * ve
     energy_cost = 0.5 * jnp.sum(nlp.c * jnp.sum(ve**2, axis=1)) * nlp.umax * a_si * unit
-    lam = (nlp.cond.costates(res.nu) / tr.mesh.grid.weights[None, :, None]).reshape(K * n, 6)
-    costates = unit * jax.vmap(
-        lambda p, s: jax.vjp(lambda x: model_state(energy, x, s), jnp.zeros(6))[1](p)[0])(
-            lam, rows_s[:-1])
     w = safe_norm(v, axis=1)
-    states = keep(to_lvlh(rows, rows_s))
-    row_idx = collocated_rows(grid)
-    trajectory = Collocated(
-        grid=grid, times=chief.t[row_idx],
-        dt_dtau=0.5 * (ocp.sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[row_idx]),
-        node_controls=keep(U * a_si), node_costates=keep(costates), state_times=chief.t,
-        node_states=states, polynomial=states, s0=ocp.s0, sf=ocp.sf, orbit=problem.orbit,
-        clock="tabulated" if problem.model == "j2" else "true-anomaly")
+    trajectory = zero_invalid(valid, collocated_trajectory(tr, nlp, rows, U * a_si, res.nu,
+                                                           unit))
     accuracy = collocation_accuracy(energy, grid, rows, U)
     for name in ("constraint_violation", "violation_position", "violation_velocity"):
         accuracy.pop(name)            # the bound's own measure is path_violation

@@ -48,8 +48,8 @@ import numpy as np
 from ..compilation import compiled
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
-from ..collocation.segments import (LGRMesh, SegmentedMesh, aligned_breaks, segmented_lgr,
-                                   uniform_breaks)
+from ..collocation.segments import (SegmentedMesh, aligned_breaks, as_segmented,
+                                   segmented_lgr, uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
 from ..dynamics.chief import kepler_final_anomaly
 from ..implicit import root
@@ -95,8 +95,8 @@ def switching_function(sol, t):
     return 1.0 - jnp.linalg.norm(primer(sol, t))
 
 
-def _rows(X):
-    """The collocation points' state rows (K n, 6) of state rows X (K, n + 1, 6)."""
+def collocation_rows(X):
+    """The collocation points' state rows (K n, 6) of segment state rows X (K, n + 1, 6)."""
     return X[:, :-1].reshape(-1, X.shape[-1])
 
 
@@ -109,7 +109,7 @@ def _linearisations(tr, options: HomotopyOptions):
     def run_at(ref, nu0):
         nlp = tr.linearised(ref)
         res = run_homotopy(nlp.E, nlp.c, nlp.d, nu0, options)
-        return nlp, res, _rows(nlp.states(res.nu, res.eps))
+        return nlp, res, collocation_rows(nlp.states(res.nu, res.eps))
 
     ref = jnp.zeros((tr.mesh.n_points, 6), tr.ocp.params["x0"].dtype)
     nlp, res, X = run_at(ref, jnp.zeros_like(tr.ocp.params["x0"]))
@@ -140,7 +140,7 @@ def _optimality(z, problem, mesh, eps):
         return residual(z, nlp.E, nlp.c, nlp.d, eps)
     nu, ref = z
     nlp = transcribe(problem, mesh).linearised(ref)
-    return residual(nu, nlp.E, nlp.c, nlp.d, eps), ref - _rows(nlp.states(nu, eps))
+    return residual(nu, nlp.E, nlp.c, nlp.d, eps), ref - collocation_rows(nlp.states(nu, eps))
 
 
 @root(_optimality, zero_nonfinite=True)
@@ -173,15 +173,8 @@ _compiled = compiled(_fuel_optimal_transfer, static_argnames="options")
 DEFAULT_SEGMENTS, DEFAULT_POINTS = 24, 8     # Yue & Duan 2016's mesh
 
 
-def _segmented(mesh):
-    """A solution's `LGRMesh` (breaks in tau) as the `SegmentedMesh` it was built from."""
-    if isinstance(mesh, LGRMesh):
-        return SegmentedMesh(breaks=0.5 * (mesh.breaks + 1.0), grid=mesh.segment)
-    return mesh
-
-
 def check_grid(mesh, method):
-    mesh = _segmented(mesh)
+    mesh = as_segmented(mesh)
     if not isinstance(mesh, SegmentedMesh):
         raise ValueError(f"the grid of a fuel-optimal transfer is a SegmentedMesh "
                          f"(segmented_lgr(breaks, n), breaks as fractions of [s0, s_f]) or a "
@@ -204,7 +197,8 @@ def run(problem, mesh, method, options: HomotopyOptions) -> Solution:
     jit-compiled once per mesh shape and options; vmap-able over problems and
     meshes. A solution's own `grid` (an `LGRMesh` in tau) is accepted too. Traced bad input
     gives INVALID_INPUT."""
-    return _compiled(problem, _segmented(mesh), options)      # traced too: one program, not op by op
+    # traced too: one program, not op by op
+    return _compiled(problem, as_segmented(mesh), options)
 
 
 REFINE_SEGMENTS = (DEFAULT_SEGMENTS, 48, 96)
@@ -331,9 +325,10 @@ def _burn_runs(sol: Solution):
     of collocation points that fire (throttle > 0), each point standing for its quadrature
     cell (the cumulative LGR weights of its segment). A run's end point with a partial
     throttle w fires for the fraction w of its cell, on the run's side; a run of one point is
-    centred on it; a run that reaches an end of the transfer burns from (to) it. This impulse-equivalent estimate is the discrete solution's own: a
-    bang-bang optimum on a mesh puts one partial point at each switch, where |p| sits within
-    eps of 1, so the primer's crossing lies at that point and not at the switch."""
+    centred on it; a run that reaches an end of the transfer burns from (to) it. This
+    impulse-equivalent estimate is the discrete solution's own: a bang-bang optimum on a mesh
+    puts one partial point at each switch, where |p| sits within eps of 1, so the primer's
+    crossing lies at that point and not at the switch."""
     grid = sol.grid
     b = 0.5 * (np.asarray(grid.breaks) + 1.0)
     cells = np.concatenate([[0.0], np.cumsum(np.asarray(grid.segment.weights))]) / 2.0

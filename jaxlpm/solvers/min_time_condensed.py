@@ -29,18 +29,17 @@ import numpy as np
 
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
-from ..collocation.segments import LGRMesh, SegmentedMesh, segmented_lgr, uniform_breaks
+from ..collocation.segments import (SegmentedMesh, as_segmented, segmented_lgr,
+                                   uniform_breaks)
 from ..compilation import compiled
 from ..nlp.accuracy import unit_direction
 from ..nlp.reachable import primer_directions, support, support_minimiser
-from ..nlp.transcription import collocated_rows
-from ..dynamics.chief import anomaly_rate
-from ..problems.energy_optimal import collocation_accuracy, lvlh_state, model_state
-from ..problems.fuel_optimal import FuelOptimalTransfer, transcribe
+from ..problems.energy_optimal import collocation_accuracy
+from ..problems.fuel_optimal import FuelOptimalTransfer, collocated_trajectory, transcribe
 from ..problems.min_time import MinimumTimeTransfer
-from ..solution import Collocated, Solution, zero_invalid
+from ..solution import Solution, zero_invalid
 from ..status import Status
-from .fuel_optimal import exact_linear_nlp
+from .fuel_optimal import collocation_rows, exact_linear_nlp
 
 MIN_POINTS = 3
 
@@ -117,10 +116,6 @@ def _duration(problem, mesh, ref, T0, hi, options):
     return T, p, dg, (jnp.abs(g) <= 1e-9) & (jnp.abs(step) <= options.duration_tol)
 
 
-def _rows(X):
-    return X[:, :-1].reshape(-1, X.shape[-1])
-
-
 def _start(problem):
     """2 sqrt(|dr| / a) + |dv| / a (s): the rest-to-rest bang-bang time plus the velocity
     change at full thrust, a first duration."""
@@ -140,7 +135,7 @@ def _solve(problem, mesh, options):
         _, nlp = _condensed(problem, mesh, T, ref)
         U = nlp.umax * primer_directions(nlp.E, p)
         X = nlp.cond.states(nlp.x0, U.reshape(mesh.n_segments, mesh.grid.n, 3))
-        return T, p, dg, ok, _rows(X)
+        return T, p, dg, ok, collocation_rows(X)
 
     T, p, dg, ok, X = run_at(ref, _start(problem))
     change = jnp.max(jnp.abs(X - ref))
@@ -170,7 +165,6 @@ def _min_time_condensed(problem, mesh, options):
     U = nlp.umax * primer_directions(nlp.E, p)
     X = nlp.cond.states(nlp.x0, U.reshape(K, n, 3))
     rows = jnp.concatenate([X[:, :n].reshape(K * n, 6), X[-1, -1:]])
-    ocp, grid, chief = tr.ocp, tr.grid, tr.chief
     energy = tr.problem.energy_problem()
     hi = problem.bounds[1]
     reached = jnp.max(jnp.abs(jnp.einsum("iab,ib->a", nlp.E, U / nlp.umax) - nlp.d))
@@ -181,24 +175,13 @@ def _min_time_condensed(problem, mesh, options):
         Status.MAX_ITERATIONS).astype(jnp.int32)
     # dT*/dd = p* / (dF*/dT) at F* = 1, F* = exp(g): dF*/dT = dg / T; d = x_f - Phi x0 - o,
     # so dT*/dx0 = Phi^T nu with nu = -dT*/dd (the fuel family's convention)
-    lam = (nlp.cond.costates(-p * T / dg) / mesh.grid.weights[None, :, None]).reshape(K * n, 6)
-    rows_s = jnp.concatenate([nlp.mesh_s.points.reshape(-1), ocp.sf[None]])
-    costates = jax.vmap(
-        lambda q, s: jax.vjp(lambda x: model_state(energy, x, s), jnp.zeros(6))[1](q)[0])(
-            lam, rows_s[:-1])
-    states = jax.vmap(lambda x, s: lvlh_state(energy, x, s))(rows, rows_s)
-    idx = collocated_rows(grid)
     a = problem.acceleration
-    trajectory = Collocated(
-        grid=grid, times=chief.t[idx],
-        dt_dtau=0.5 * (ocp.sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[idx]),
-        node_controls=U / nlp.umax * a, node_costates=costates, state_times=chief.t,
-        node_states=states, polynomial=states, s0=ocp.s0, sf=ocp.sf, orbit=problem.orbit,
-        magnitude=a, clock="tabulated" if problem.model == "j2" else "true-anomaly")
+    trajectory = collocated_trajectory(tr, nlp, rows, U / nlp.umax * a, -p * T / dg, 1.0,
+                                       magnitude=a)
     stats = dict(
         node_directions=U / nlp.umax, primer_normal=p, duration_slope=dg,
         terminal_residual=reached, linearisations=runs, linearisation_change=change,
-        **collocation_accuracy(energy, grid, rows, U,
+        **collocation_accuracy(energy, tr.grid, rows, U,
                                control_map=lambda u: nlp.umax * unit_direction(u)))
     solution = Solution(problem=requested, status=status, cost=T, duration=T,
                         trajectory=zero_invalid(valid, trajectory),
@@ -212,15 +195,8 @@ DEFAULT_SEGMENTS, DEFAULT_POINTS = 16, 8
 REFINE_SEGMENTS = (16, 32, 64, 128)
 
 
-def segmented(mesh):
-    """A `SegmentedMesh`, or a solution's `LGRMesh` (breaks in tau) as one."""
-    if isinstance(mesh, LGRMesh):
-        return SegmentedMesh(breaks=0.5 * (mesh.breaks + 1.0), grid=mesh.segment)
-    return mesh
-
-
 def check_grid(mesh, method):
-    mesh = segmented(mesh)
+    mesh = as_segmented(mesh)
     if not isinstance(mesh, SegmentedMesh):
         raise ValueError(f"the grid of method 'condensed' is a SegmentedMesh "
                          f"(segmented_lgr(breaks, n), breaks as fractions of [s0, s_f]) or a "
@@ -240,7 +216,7 @@ def run(problem, mesh, method, options: CondensedOptions) -> Solution:
     if is_concrete(problem.duration_bounds) and np.any(np.asarray(problem.bounds)[..., 0] > 0):
         raise ValueError("method 'condensed' takes duration_bounds [0, t_max] only (a constant-"
                          "thrust transfer cannot be stretched to a longer time)")
-    return _compiled(problem, segmented(mesh), options)
+    return _compiled(problem, as_segmented(mesh), options)
 
 
 def refine_transfer(problem, options, judge, segments=REFINE_SEGMENTS,
