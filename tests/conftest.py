@@ -44,8 +44,9 @@ def _release_compiled_programs():
 # The files that take longest (`python -m pytest --durations=80`, summed per file: 96-128 s
 # each on the 2-core VM), handed to the parallel workers first, so that the workers finish
 # together instead of one running a long file alone at the end (longest first).
-SLOW_FILES_FIRST = ("test_safety.py", "test_verify.py", "test_newton.py", "test_api.py", "test_tan2011.py",
-                    "test_properties.py", "test_accuracy.py")
+SLOW_FILES_FIRST = ("test_safety.py", "test_verify.py", "test_newton.py", "test_api.py",
+                    "test_tan2011.py", "test_properties.py", "test_accuracy.py",
+                    "test_fuel_eccentric.py", "test_min_time_eccentric.py")
 
 
 def pytest_collection_modifyitems(items):
