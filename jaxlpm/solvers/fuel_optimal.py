@@ -268,6 +268,19 @@ def exact_linear_nlp(problem: FuelOptimalTransfer, breaks, nodes, weights):
             xf - yamanaka_ankersen_stm(sf, s0, T, o.e, o.k2) @ x0)
 
 
+def panel_quadrature(breaks, points):
+    """(breaks, nodes, weights) as arrays for `exact_linear_nlp`: the panels' breaks checked
+    (strictly increasing fractions of [f0, f_f] from 0 to 1) and `points` Gauss-Legendre
+    nodes and weights; a ValueError names what is wrong."""
+    b = np.asarray(breaks, dtype=np.float64)
+    if b.ndim != 1 or b.size < 2 or not np.all(np.diff(b) > 0) or b[0] != 0.0 or b[-1] != 1.0:
+        raise ValueError("breaks must increase strictly from 0 to 1 (fractions of [f0, f_f])")
+    if isinstance(points, bool) or not isinstance(points, int) or points < 1:
+        raise ValueError(f"points must be a positive integer, got {points!r}")
+    nodes, weights = lg_nodes_weights(points)
+    return jnp.asarray(b), jnp.asarray(nodes), jnp.asarray(weights)
+
+
 def _indirect(problem, breaks, nu0, nodes, weights, options):
     energy = problem.energy_problem()
     sf = kepler_final_anomaly(problem.orbit, problem.duration)
@@ -307,17 +320,11 @@ def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points
     if problem.model != "linear":
         raise ValueError(f"indirect_fuel_optimal shoots on the linear model's exact flow, got "
                          f"model {problem.model!r}")
-    b = np.asarray(breaks, dtype=np.float64)
-    if b.ndim != 1 or b.size < 2 or not np.all(np.diff(b) > 0) or b[0] != 0.0 or b[-1] != 1.0:
-        raise ValueError("breaks must increase strictly from 0 to 1 (fractions of [f0, f_f])")
-    if isinstance(points, bool) or not isinstance(points, int) or points < 1:
-        raise ValueError(f"points must be a positive integer, got {points!r}")
-    nodes, weights = lg_nodes_weights(points)
+    b, nodes, weights = panel_quadrature(breaks, points)
     nu0 = jnp.zeros(6) if nu0 is None else jnp.asarray(nu0)
     if nu0.shape != (6,):
         raise ValueError(f"nu0 must have shape (6,), got {nu0.shape}")
-    return _indirect_compiled(problem, jnp.asarray(b), nu0, jnp.asarray(nodes),
-                              jnp.asarray(weights), options)
+    return _indirect_compiled(problem, b, nu0, nodes, weights, options)
 
 
 def _burn_runs(sol: Solution):

@@ -28,7 +28,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import is_concrete, require_x64
-from ..collocation import lg_nodes_weights
 from ..collocation.segments import (SegmentedMesh, as_segmented, segmented_lgr,
                                    uniform_breaks)
 from ..compilation import compiled
@@ -39,7 +38,7 @@ from ..problems.fuel_optimal import FuelOptimalTransfer, collocated_trajectory, 
 from ..problems.min_time import MinimumTimeTransfer
 from ..solution import Solution, zero_invalid
 from ..status import Status
-from .fuel_optimal import collocation_rows, exact_linear_nlp
+from .fuel_optimal import collocation_rows, exact_linear_nlp, panel_quadrature
 
 MIN_POINTS = 3
 
@@ -296,9 +295,4 @@ def min_time_shooting(problem: MinimumTimeTransfer, breaks, points: int = 8,
     if problem.model != "linear":
         raise ValueError(f"min_time_shooting uses the linear model's exact flow, got model "
                          f"{problem.model!r}")
-    b = np.asarray(breaks, dtype=np.float64)
-    if b.ndim != 1 or b.size < 2 or not np.all(np.diff(b) > 0) or b[0] != 0.0 or b[-1] != 1.0:
-        raise ValueError("breaks must increase strictly from 0 to 1 (fractions of [f0, f_f])")
-    nodes, weights = lg_nodes_weights(points)
-    return _shooting_compiled(problem, jnp.asarray(b), jnp.asarray(nodes),
-                              jnp.asarray(weights), options)
+    return _shooting_compiled(problem, *panel_quadrature(breaks, points), options)
