@@ -39,6 +39,7 @@ from .solution import DEFAULT_TOLERANCE, Solution, SolveError, Tolerance  # noqa
 from .solvers import solve  # noqa: E402
 from .solvers.refine import DEFAULT_LADDER, MeshLadder  # noqa: E402
 from .solvers.finite_burn import FiniteBurnOptions  # noqa: E402
+from .solvers.fuel_constrained import FuelALOptions  # noqa: E402
 from .solvers.fuel_optimal import (burn_arcs, indirect_fuel_optimal, primer,  # noqa: E402
                                    refine_fuel_optimal, switching_function, switching_times)
 from .solvers.lqr import hcw_lqr  # noqa: E402
@@ -53,7 +54,7 @@ __version__ = "0.2.0"
 __all__ = [
     "DEFAULT_LADDER", "DEFAULT_TOLERANCE", "LGRMesh", "MeshLadder", "Tolerance", "lgr_mesh",
     "ALOptions", "ApproachCone", "CareSolution", "CondensedOptions", "EnergyOptimalTransfer", "FiniteBurnIntercept",
-    "FiniteBurnOptions", "FuelOptimalTransfer", "Grid", "HomotopyOptions",
+    "FiniteBurnOptions", "FuelALOptions", "FuelOptimalTransfer", "Grid", "HomotopyOptions",
     "ImpulsiveIntercept", "KeepOutEllipsoid", "KeplerOrbit", "LQRTransfer", "LambertSolution",
     "MinimumTimeTransfer", "NewtonOptions", "OptimalControlProblem", "PassiveSafety",
     "SegmentedMesh",

@@ -24,6 +24,7 @@ by the K = 100 costate estimates), independent of any grid: the mesh study's err
 measured against it.
 """
 
+import sys
 import time
 
 import jax
@@ -37,6 +38,7 @@ from ..orbits import KeplerOrbit
 from ..problems import MinimumTimeTransfer
 from ..solvers import solve
 from ..status import Status
+from .result import finish
 from ..verify import fly, min_time_shooting
 
 NAME = "duan"
@@ -317,9 +319,5 @@ def figures(computed, data, out_dir):
 def reproduce(out_dir, log=print):
     """Run the case: compute, print, draw. Returns the JSON-ready result dict."""
     computed, data = compute(log)
-    report(computed, log)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    for path in figures(computed, data, out_dir):
-        log(f"wrote {path}")
-    return {"schema_version": 1, "case": NAME, "published": PUBLISHED, "computed": computed,
-            "notes": NOTES}
+    return finish(sys.modules[__name__], computed,
+                  lambda out: figures(computed, data, out), out_dir, log)

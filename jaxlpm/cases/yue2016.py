@@ -23,6 +23,7 @@ tests/test_fuel_optimal.py). Then a batched sweep of the 8 km case over T_max an
 transfer time.
 """
 
+import sys
 import time
 
 import jax
@@ -35,6 +36,7 @@ from ..orbits import KeplerOrbit
 from ..problems.fuel_optimal import FuelOptimalTransfer
 from ..solvers.fuel_optimal import burn_arcs, indirect_fuel_optimal, primer, refine_fuel_optimal
 from ..status import Status
+from .result import finish
 
 NAME = "yue2016"
 TITLE = ("Yue & Duan 2016: fuel-optimal formation transfers by Radau pseudospectral "
@@ -344,9 +346,5 @@ def figures(computed, data, out_dir):
 def reproduce(out_dir, log=print):
     """Run the case: compute, print, draw. Returns the JSON-ready result dict."""
     computed, data = compute(log)
-    report(computed, log)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    for path in figures(computed, data, out_dir):
-        log(f"wrote {path}")
-    return {"schema_version": 1, "case": NAME, "published": PUBLISHED, "computed": computed,
-            "notes": NOTES}
+    return finish(sys.modules[__name__], computed,
+                  lambda out: figures(computed, data, out), out_dir, log)

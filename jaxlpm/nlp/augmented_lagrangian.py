@@ -228,6 +228,20 @@ def _solver(options: ALOptions, linear_algebra=DenseKKT):
     return solve
 
 
+def start_penalty(ocp, grid, rho0, dtype) -> PathPenalty:
+    """The first subproblem's `PathPenalty`: zero multipliers shaped as G, H and B, rho0."""
+    _, _, sg, sh, sb = _sizes(ocp, grid)
+    return PathPenalty(jnp.zeros(sg, dtype), jnp.zeros(sh, dtype), jnp.zeros(sb, dtype),
+                       jnp.asarray(rho0, dtype))
+
+
+def stack_kkt_point(result: ALResult):
+    """w = [z, lambda, mu, nu, mu_B] of a result: the unknowns of `al_kkt_residual`."""
+    pm = result.path_multipliers
+    return jnp.concatenate([result.z, result.multipliers, pm.inequality.reshape(-1),
+                            pm.equality.reshape(-1), pm.bounds])
+
+
 def augmented_lagrangian(ocp, grid, z0, multipliers0=None,
                          options: ALOptions = ALOptions(), linear_algebra=DenseKKT,
                          penalty0=None) -> ALResult:
@@ -257,8 +271,7 @@ def augmented_lagrangian(ocp, grid, z0, multipliers0=None,
         fixed = jax.lax.stop_gradient((ocp, z0))
         multipliers0 = linear_algebra(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
     if penalty0 is None:
-        penalty0 = PathPenalty(jnp.zeros(sg, z0.dtype), jnp.zeros(sh, z0.dtype),
-                               jnp.zeros(sb, z0.dtype), options.rho0)
+        penalty0 = start_penalty(ocp, grid, options.rho0, z0.dtype)
     path0 = [jnp.reshape(v, -1).astype(z0.dtype)
              for v in (penalty0.inequality, penalty0.equality, penalty0.bounds)]
     if [v.size for v in path0] != [sg[0] * sg[1], sh[0] * sh[1], sb[0]]:

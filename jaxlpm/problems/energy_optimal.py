@@ -396,11 +396,13 @@ def safety_stats(problem: EnergyOptimalTransfer, grid, X, U, tau, s, t):
 
 
 def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status, valid,
-                method="newton", extra=None):
+                method="newton", extra=None, cost_unit=None):
     """The `Solution` (SI, LVLH) of the transcribed transfer solved to `result` (an
     `NLPResult` of `transfer_ocp(problem, grid)`, whose chief samples are `chief`): states
-    and controls unscaled, the cost 1/2 int |u|^2 dt, costates dJ/dx = cost_scale
-    (dx~/dx)^T dJ~/dx~ (x~ = `model_state`(x)), zeros where `valid` is False.
+    and controls unscaled, the cost 1/2 int |u|^2 dt, costates dJ/dx = cost_unit
+    (dx~/dx)^T dJ~/dx~ (x~ = `model_state`(x)), zeros where `valid` is False. cost_unit: the
+    SI cost per unit of the solver's objective (default `cost_scale`; another running cost,
+    such as the smoothed delta-v of `jaxlpm.solvers.fuel_constrained`, gives its own).
 
     stats: node_s, state_s (anomalies of the collocation points and state rows, rad),
     cost_true_anomaly (k^2 cost, m^2/s^4), costates_scaled (dJ~/dx~), multipliers,
@@ -413,9 +415,10 @@ def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status
     rows_s = state_s(ocp, grid)
     node_s = collocation_s(ocp, grid)
     states = keep(jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, rows_s))
-    cost = cost_scale(problem) * objective(result.z, ocp, grid)
+    cost_unit = cost_scale(problem) if cost_unit is None else cost_unit
+    cost = cost_unit * objective(result.z, ocp, grid)
     lam = costates(result.z, result.multipliers, ocp, grid)
-    node_costates = cost_scale(problem) * jax.vmap(
+    node_costates = cost_unit * jax.vmap(
         lambda p, s: jax.vjp(lambda x: model_state(problem, x, s), jnp.zeros(6))[1](p)[0])(
             lam, node_s)
     rows = collocated_rows(grid)

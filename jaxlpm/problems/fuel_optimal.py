@@ -70,6 +70,10 @@ class FuelOptimalTransfer(Checked):
     model        "linear" (Tschauner-Hempel; HCW on a circular chief), "two-body" or "j2"
                  (static; `jaxlpm.problems.energy_optimal`)
     j2, r_eq     the J2 coefficient and equatorial radius (m) of the "j2" model
+    constraints  safety constraints in SI (LVLH about the target; `jaxlpm.problems.safety`:
+                 `KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `PassiveSafety`; the
+                 thrust bound is the family's own), a tuple (default none); with any, the
+                 method is "augmented-lagrangian" (`jaxlpm.solvers.fuel_constrained`)
     """
 
     orbit: KeplerOrbit
@@ -82,12 +86,15 @@ class FuelOptimalTransfer(Checked):
     model: str = field(default="linear", metadata=dict(static=True))
     j2: jax.Array = J2_EARTH
     r_eq: jax.Array = R_EARTH
+    constraints: tuple = field(default=(), metadata=dict(tree=True))
 
     SHAPES = {"x0": (6,), "xf": (6,), "duration": (), "thrust_max": (), "mass": (), "isp": (),
               "j2": (), "r_eq": ()}
 
     def __post_init__(self):
         coerce_sequences(self)
+        if isinstance(self.constraints, list):
+            object.__setattr__(self, "constraints", tuple(self.constraints))
 
     def replace(self, **kwargs) -> "FuelOptimalTransfer":
         return replace(self, **kwargs)
@@ -110,7 +117,7 @@ class FuelOptimalTransfer(Checked):
         positive = [Rule(name, jnp.isfinite(getattr(self, name)) & (getattr(self, name) > 0.0),
                          f"positive and finite ({unit})")
                     for name, unit in (("thrust_max", "N"), ("mass", "kg"), ("isp", "s"))]
-        return [*self.energy_problem().rules(), *positive,
+        return [*self.energy_problem(self.constraints).rules(), *positive,
                 Rule("xf", jnp.any(self.x0 != self.xf),
                      "different from x0 (the fuel-optimal transfer is no thrust at all)")]
 
@@ -118,6 +125,11 @@ class FuelOptimalTransfer(Checked):
         """The model, then the fields' shapes (`Checked.static_rules`)."""
         if self.model not in MODELS:
             raise ValueError(f"model must be one of {MODELS}, got {self.model!r}")
+        for i, c in enumerate(safety.check_constraints(self.constraints)):
+            if isinstance(c, safety.ThrustLimit):
+                raise ValueError(f"constraints[{i}]: a fuel-optimal transfer's thrust bound is "
+                                 f"its thrust_max / mass, not a ThrustLimit")
+            c.static_rules()
         super().static_rules()
 
     def harmless(self) -> "FuelOptimalTransfer":
@@ -126,7 +138,8 @@ class FuelOptimalTransfer(Checked):
         return FuelOptimalTransfer(
             orbit=self.orbit.harmless(), x0=jnp.zeros(6),
             xf=jnp.array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), duration=5000.0, thrust_max=1.0,
-            mass=100.0, isp=300.0, model=self.model, j2=0.0, r_eq=R_EARTH)
+            mass=100.0, isp=300.0, model=self.model, j2=0.0, r_eq=R_EARTH,
+            constraints=tuple(c.harmless() for c in self.constraints))
 
 
 def check_fuel_problem(problem: FuelOptimalTransfer) -> None:

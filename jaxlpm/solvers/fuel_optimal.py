@@ -61,6 +61,7 @@ from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel, residual, 
 from ..solution import Solution
 from ..status import Status
 from .family import FamilySolver
+from .fuel_constrained import FuelALOptions, constrained_fuel_optimal
 
 MIN_POINTS = 3
 BURNING = 1e-9             # a collocation point fires where its throttle exceeds this
@@ -191,32 +192,57 @@ def check_grid(mesh, method):
                              f"from 0 to 1, got [{b[0]}, {b[-1]}]")
 
 
-def run(problem, mesh, method, options: HomotopyOptions) -> Solution:
+def default_method(problem, mesh=None):
+    """The augmented Lagrangian with safety constraints (`jaxlpm.solvers.fuel_constrained`),
+    else the condensed homotopy."""
+    return "augmented-lagrangian" if problem.constraints else "homotopy"
+
+
+def run(problem, mesh, method, options) -> Solution:
     """Solve on one segmented LGR mesh whose breaks are fractions of the independent
     variable's span [s0, s_f] (from 0 to 1; of the transfer time on a circular chief).
     jit-compiled once per mesh shape and options; vmap-able over problems and
     meshes. A solution's own `grid` (an `LGRMesh` in tau) is accepted too. Traced bad input
-    gives INVALID_INPUT."""
+    gives INVALID_INPUT. Method "homotopy" (`HomotopyOptions`) for transfers without safety
+    constraints, "augmented-lagrangian" (`FuelALOptions`) for those with them."""
+    if method != default_method(problem):
+        raise ValueError(
+            "a fuel-optimal transfer with safety constraints is solved by method "
+            f"'augmented-lagrangian' (options FuelALOptions), got {method!r}"
+            if problem.constraints else
+            "method 'augmented-lagrangian' is for fuel-optimal transfers with safety "
+            "constraints (FuelOptimalTransfer(..., constraints=[...])); this one has none: "
+            "use 'homotopy'")
     # traced too: one program, not op by op
+    if method == "augmented-lagrangian":
+        return constrained_fuel_optimal(problem, as_segmented(mesh), options)
     return _compiled(problem, as_segmented(mesh), options)
 
 
 REFINE_SEGMENTS = (DEFAULT_SEGMENTS, 48, 96)
+# with safety constraints the states are kept and every Newton-KKT step factors a dense KKT
+# matrix (~1900 unknowns at 16 x 8 points: 0.1-0.2 s), so refinement stays on fewer segments
+CONSTRAINED_SEGMENTS = (16, 24)
 ALIGN_PASSES = 3     # passes per segment count: the switches move as the mesh follows them
 
 
-def refine_transfer(problem, options, judge, segments=REFINE_SEGMENTS,
+def refine_transfer(problem, options, judge, segments=None,
                     points: int = DEFAULT_POINTS, passes: int = ALIGN_PASSES):
     """`solve(problem)` without a grid: a uniform mesh of segments[0] LGR segments of `points`
     points, then, for each count in `segments`, up to `passes` meshes with a break at every
     switching time of the previous solution (`aligned_breaks`: the solution's switches move
     with the mesh, so the breaks follow them), until the error estimate meets the tolerance
     (`judge` leaves it SUCCESS) or the last mesh (then INACCURATE). A solve that fails
-    outright (not converged) ends the refinement with its status. stats gain mesh_passes."""
-    options = HomotopyOptions() if options is None else options
+    outright (not converged) ends the refinement with its status. stats gain mesh_passes.
+    segments: default `REFINE_SEGMENTS`, `CONSTRAINED_SEGMENTS` with safety constraints."""
+    method = default_method(problem)
+    if segments is None:
+        segments = CONSTRAINED_SEGMENTS if problem.constraints else REFINE_SEGMENTS
+    if options is None:
+        options = FuelALOptions() if problem.constraints else HomotopyOptions()
 
     def solve_on(breaks):
-        return judge(run(problem, segmented_lgr(breaks, points), "homotopy", options))
+        return judge(run(problem, segmented_lgr(breaks, points), method, options))
 
     solution, done = solve_on(uniform_breaks(0.0, 1.0, segments[0])), 1
     for count in (count for count in segments for _ in range(passes)):
@@ -228,10 +254,12 @@ def refine_transfer(problem, options, judge, segments=REFINE_SEGMENTS,
 
 
 FAMILY = FamilySolver(
-    problem=FuelOptimalTransfer, methods={"homotopy": HomotopyOptions}, run=run,
+    problem=FuelOptimalTransfer,
+    methods={"homotopy": HomotopyOptions, "augmented-lagrangian": FuelALOptions}, run=run,
     default_grid=lambda problem: segmented_lgr(uniform_breaks(0.0, 1.0, DEFAULT_SEGMENTS),
                                                DEFAULT_POINTS),
-    check_grid=check_grid, refine=refine_transfer, refine_method="homotopy")
+    check_grid=check_grid, default_method=default_method, refine=refine_transfer,
+    refine_method=default_method)
 
 
 @jax.tree_util.register_dataclass
@@ -342,7 +370,7 @@ def _burn_runs(sol: Solution):
     lo = (b[:-1, None] + np.diff(b)[:, None] * cells[None, :-1]).reshape(-1)
     hi = (b[:-1, None] + np.diff(b)[:, None] * cells[None, 1:]).reshape(-1)
     w = np.asarray(sol.stats["node_throttle"]).reshape(-1)
-    on = w > BURNING
+    on = w > float(sol.stats.get("burn_threshold", BURNING))
     edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
     runs = []
     for i, j in zip(edges[::2], edges[1::2] - 1):

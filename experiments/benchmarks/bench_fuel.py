@@ -1,0 +1,268 @@
+"""Benchmark of the batched fuel-optimal solve on eccentric chiefs against CasADi + IPOPT one
+problem at a time on the same transcription (issue 22).
+
+The problems: a dispersion of B transfers on the linear (Tschauner-Hempel) model, chief
+perigee radius 7000 km and e uniform in [0, 0.5], from rest at the chief to a point at rest
+uniform in a box of +-4 km (radial, along-track) and +-1 km (normal), in 0.9-1.3 chief
+periods, 0.3 N on 50 kg (u_max = 6 mm/s^2).
+
+The transcription (both solvers): the fuel-optimal family's, on the uniform mesh of
+--segments LGR segments of --points points (breaks as fractions of the anomaly span):
+state rows X (K n + 1, 6) in the solver's scaled Tschauner-Hempel units, controls U (K n, 3),
+defects D_k X_k = h_k (A_i X_i + B_i U_i) per segment (A_i, B_i the model's matrices at the
+collocation anomalies, from jaxlpm), X_0 = x0, X_end = xf, |U_i| <= u_max, cost the delta-v
+sum_i c_i |U_i| / u_max (c: jaxlpm's weights). Ours: `jaxlpm.solve(problem, mesh)` vmapped
+over the batch (the states eliminated, the energy-to-fuel homotopy on the six-dimensional dual
+to eps = 1e-6). Peer: the same NLP written in CasADi with the states kept, the bound
+|U_i|^2 <= u_max^2 as a constraint, and the smoothed cost of our augmented-Lagrangian method
+(`jaxlpm.solvers.fuel_constrained`): sum_i c_i l_eps(w_i), w_i = sqrt(|U_i|^2 / u_max^2 +
+delta^2), delta = 1e-4, continued over eps = 1, 0.3, 0.1, 0.03, 0.01, 3e-3, each solve
+warm-started (primal and multipliers). Written on the exact L1 cost, in the cone form or with
+the norm smoothed at delta = 1e-6 (with or without a continuation in delta), IPOPT reached its
+iteration limit on most problems (issue 22 note): the eps continuation is what makes it a
+peer. IPOPT (MUMPS, exact Hessian, tol 1e-9) from the straight line between the ends and
+zero control; the solver is built once per process and each problem's matrices and ends enter
+as parameters. IPOPT runs in as many processes as this machine has cores (ours uses them
+through XLA).
+
+Reported: our compile (first call) and steady-state time of the batched call (median), IPOPT's
+build and total solve time over the batch (the processes' wall time), the ratio of the
+throughputs, the statuses, and the delta-v of both (IPOPT's is that of its control, sum_i c_i
+|U_i| / u_max, which exceeds the mesh's fuel optimum by at most (eps F + delta C (1 + eps)) /
+(1 - eps), C = u_max T; ours is that optimum to ~1e-6).
+
+    PYTHONPATH=. python experiments/benchmarks/bench_fuel.py [--members 256] [--segments 24]
+        [--points 8] [--out results/bench_fuel.json]
+"""
+
+import argparse
+import json
+import multiprocessing
+import os
+import pathlib
+import sys
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(__file__))
+from common import block, machine_info, timed  # noqa: E402
+
+import jaxlpm as lpm  # noqa: E402
+from jaxlpm.nlp.transcription import collocation_s  # noqa: E402
+from jaxlpm.problems.fuel_optimal import delta_v_unit, transcribe  # noqa: E402
+
+EPS = (1.0, 0.3, 0.1, 0.03, 0.01, 3e-3)   # the peer's continuation (module docstring)
+DELTA = 1e-4                              # its smoothing of the throttle
+IPOPT_OPTIONS = {"ipopt.tol": 1e-9, "ipopt.print_level": 0, "ipopt.sb": "yes",
+                 "ipopt.hessian_approximation": "exact", "ipopt.linear_solver": "mumps",
+                 "ipopt.max_iter": 500, "ipopt.warm_start_init_point": "yes", "print_time": False}
+
+
+def dispersion(key, size):
+    """B eccentric fuel-optimal transfers (module docstring), one batched problem."""
+    k = jax.random.split(key, 4)
+    e = jax.random.uniform(k[0], (size,), maxval=0.5)
+    a = 7000e3 / (1.0 - e)
+    orbit = lpm.KeplerOrbit(a=a, e=e, i=jnp.zeros(size), raan=jnp.zeros(size),
+                            argp=jnp.zeros(size), f0=jnp.zeros(size),
+                            mu=jnp.full(size, lpm.constants.MU_EARTH))
+    box = jnp.array([4e3, 4e3, 1e3])
+    r = jax.random.uniform(k[1], (size, 3), minval=-1.0, maxval=1.0) * box
+    xf = jnp.concatenate([r, jnp.zeros((size, 3))], axis=1)
+    revolutions = jax.random.uniform(k[2], (size,), minval=0.9, maxval=1.3)
+    period = 2 * np.pi * jnp.sqrt(a**3 / lpm.constants.MU_EARTH)
+    full = jnp.ones(size)
+    return lpm.FuelOptimalTransfer(orbit, jnp.zeros((size, 6)), xf, revolutions * period,
+                                   0.3 * full, 50.0 * full, 1000.0 * full,
+                                   j2=lpm.constants.J2_EARTH * full,
+                                   r_eq=lpm.constants.R_EARTH * full)
+
+
+def member(tree, i):
+    return jax.tree_util.tree_map(lambda x: x[i], tree)
+
+
+@jax.jit
+def nlp_data(problem, mesh):
+    """The transcription's numbers for the peer: A_i, B_i at the collocation anomalies, the
+    segments' half lengths, the scaled ends, the cost weights c_i / u_max, u_max (solver
+    units)."""
+    tr = transcribe(problem, mesh)
+    ocp = tr.ocp
+    s = collocation_s(ocp, tr.grid)
+
+    def f(si, x, u, d):
+        return ocp.dynamics(si, x, u, d, ocp.params)
+
+    zero_x, zero_u = jnp.zeros(6), jnp.zeros(3)
+    A, B = jax.vmap(lambda si, d: jax.jacfwd(f, argnums=(1, 2))(si, zero_x, zero_u, d))(
+        s, ocp.node_data)
+    nlp = tr.linearised(jnp.zeros((mesh.n_points, 6)))
+    return dict(A=A, B=B, h=nlp.mesh_s.half_lengths, x0=nlp.x0, xf=nlp.xf,
+                w=nlp.c / nlp.umax, umax=nlp.umax)
+
+
+def build_ipopt(D, K, n):
+    """The peer's NLP (module docstring) with the problem's numbers as parameters."""
+    import casadi as ca
+
+    m = K * n
+    X = ca.SX.sym("X", m + 1, 6)
+    U = ca.SX.sym("U", m, 3)
+    A = ca.SX.sym("A", m, 36)
+    B = ca.SX.sym("B", m, 18)
+    h = ca.SX.sym("h", K)
+    x0, xf = ca.SX.sym("x0", 6), ca.SX.sym("xf", 6)
+    w, umax = ca.SX.sym("w", m), ca.SX.sym("umax")
+    g = []
+    for k in range(K):
+        rows = X[k * n:k * n + n + 1, :]
+        DX = ca.mtimes(ca.DM(D), rows)
+        for i in range(n):
+            p = k * n + i
+            Ai = ca.reshape(A[p, :], 6, 6).T
+            Bi = ca.reshape(B[p, :], 3, 6).T
+            rhs = ca.mtimes(Ai, X[p, :].T) + ca.mtimes(Bi, U[p, :].T)
+            g.append(DX[i, :].T - h[k] * rhs)
+    g.append(X[0, :].T - x0)
+    g.append(X[m, :].T - xf)
+    n_eq = 6 * m + 12
+    # the thrust bound, and the smoothed cost l_eps(w) = w - eps w (1 - w) of the smoothed
+    # throttle w (module docstring); eps a parameter
+    bound = [ca.dot(U[p, :], U[p, :]) / umax**2 - 1.0 for p in range(m)]
+    eps = ca.SX.sym("eps")
+    cost = 0
+    for p in range(m):
+        wp = ca.sqrt(ca.dot(U[p, :], U[p, :]) / umax**2 + DELTA**2)
+        cost += w[p] * umax * (wp - eps * wp * (1.0 - wp))
+    z = ca.vertcat(ca.vec(X), ca.vec(U))
+    params = ca.vertcat(ca.vec(A), ca.vec(B), h, x0, xf, w, umax, eps)
+    nlp = {"x": z, "p": params, "f": cost, "g": ca.vertcat(*g, *bound)}
+    solver = ca.nlpsol("fuel", "ipopt", nlp, IPOPT_OPTIONS)
+    lbg = np.concatenate([np.zeros(n_eq), np.full(m, -np.inf)])
+    ubg = np.zeros(n_eq + m)
+    return solver, lbg, ubg, z.shape[0]
+
+
+def _peer_worker(args):
+    """Solve a share of the problems with one IPOPT solver built in this process."""
+    D, K, n, data = args
+    t0 = time.perf_counter()
+    solver, lbg, ubg, nz = build_ipopt(D, K, n)
+    build = time.perf_counter() - t0
+    m = K * n
+    out = []
+    for d in data:
+        A = d["A"].reshape(m, 36)
+        B = d["B"].reshape(m, 18)
+        params = np.concatenate([A.T.reshape(-1), B.T.reshape(-1), d["h"], d["x0"], d["xf"],
+                                 d["w"], [d["umax"]], [0.0]])
+        frac = np.linspace(0.0, 1.0, m + 1)[:, None]
+        X0 = (1 - frac) * d["x0"][None] + frac * d["xf"][None]
+        z0 = np.concatenate([X0.T.reshape(-1), np.zeros(3 * m)])
+        t0 = time.perf_counter()
+        z, lam_g, its = z0, np.zeros(lbg.size), 0
+        for eps in EPS:                          # warm-started continuation in eps
+            params[-1] = eps
+            res = solver(x0=z, p=params, lbg=lbg, ubg=ubg, lam_g0=lam_g)
+            z, lam_g = np.asarray(res["x"]).ravel(), np.asarray(res["lam_g"]).ravel()
+            stats = solver.stats()
+            its += stats["iter_count"]
+            if not stats["success"]:
+                break
+        dt = time.perf_counter() - t0
+        Us = z[6 * (m + 1):].reshape(3, m).T                 # ca.vec is column-major
+        out.append(dict(cost=float(np.sum(d["w"] * np.linalg.norm(Us, axis=1))), seconds=dt,
+                        status=stats["return_status"], iterations=its))
+    return build, out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--members", type=int, default=256)
+    ap.add_argument("--segments", type=int, default=24)
+    ap.add_argument("--points", type=int, default=8)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="results/bench_fuel.json")
+    args = ap.parse_args()
+    import casadi as ca
+
+    problems = dispersion(jax.random.PRNGKey(args.seed), args.members)
+    mesh = lpm.segmented_lgr(lpm.uniform_breaks(0.0, 1.0, args.segments), args.points)
+    solve = jax.jit(jax.vmap(lambda p: lpm.solve(p, mesh, throw=False)))
+    t0 = time.perf_counter()
+    sols = block(solve(problems))
+    first = time.perf_counter() - t0
+    steady = timed(lambda: block(solve(problems)), min_repeats=3, budget_s=10.0)
+    status = np.asarray(sols.status)
+    ours_dv = np.asarray(sols.cost)
+    counts = {lpm.Status(int(s)).name: int(c) for s, c in zip(*np.unique(status,
+                                                                          return_counts=True))}
+    print(f"ours: {args.members} members, first call {first:.1f} s (compiles), steady "
+          f"{steady['median_s']:.3f} s per batch; statuses {counts}", flush=True)
+
+    data = []
+    for i in range(args.members):
+        d = nlp_data(member(problems, i), mesh)
+        data.append({k: np.asarray(v) for k, v in d.items()})
+    D = np.asarray(mesh.grid.D)
+    procs = len(os.sched_getaffinity(0))
+    shares = [(D, args.segments, args.points, data[j::procs]) for j in range(procs)]
+    t0 = time.perf_counter()
+    with multiprocessing.get_context("spawn").Pool(procs) as pool:
+        results = pool.map(_peer_worker, shares)
+    peer_wall = time.perf_counter() - t0
+    builds = [b for b, _ in results]
+    peer = [None] * args.members
+    for j, (_, out) in enumerate(results):
+        for k, r in enumerate(out):
+            peer[j + k * procs] = r
+    solve_total = sum(r["seconds"] for r in peer)
+    peer_status = {}
+    for r in peer:
+        peer_status[r["status"]] = peer_status.get(r["status"], 0) + 1
+    # IPOPT's delta-v in the scaled units sum c_i |U_i| / u_max; ours in m/s
+    unit = np.asarray(jax.vmap(delta_v_unit)(problems))
+    ipopt_dv = np.array([r["cost"] for r in peer]) * unit
+    both = (status == lpm.Status.SUCCESS) | (status == lpm.Status.INACCURATE)
+    ok_peer = np.array([r["status"] == "Solve_Succeeded" for r in peer])
+    sel = both & ok_peer
+    # IPOPT's smoothed optimum costs more than the mesh's fuel optimum, by at most `bound`
+    rel = (ipopt_dv[sel] - ours_dv[sel]) / ours_dv[sel]
+    C = np.asarray(problems.max_acceleration * problems.duration)[sel]
+    eps = EPS[-1]
+    bound = (eps * ours_dv[sel] + DELTA * C * (1 + eps) + eps * DELTA**2 * C) / (1 - eps)
+    within = int(np.sum((ipopt_dv[sel] - ours_dv[sel] >= -1e-6 * ours_dv[sel])
+                        & (ipopt_dv[sel] - ours_dv[sel] <= bound)))
+    ratio = (solve_total / procs) / steady["median_s"]
+    print(f"IPOPT: {procs} processes, build {max(builds):.1f} s, {peer_wall:.1f} s wall for "
+          f"the batch ({solve_total:.1f} s of solves, median "
+          f"{np.median([r['seconds'] for r in peer]):.3f} s, iterations median "
+          f"{np.median([r['iterations'] for r in peer]):.0f}); statuses {peer_status}",
+          flush=True)
+    print(f"throughput ratio ours / IPOPT ({procs} processes): {ratio:.1f}; delta-v relative "
+          f"excess of IPOPT's over ours on {int(sel.sum())} members both converged: median "
+          f"{np.median(rel):.1e}, min {np.min(rel):.1e}, max {np.max(rel):.1e} relative; "
+          f"within the smoothing's bound: {within}", flush=True)
+    out = pathlib.Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(dict(
+        args=vars(args), machine=machine_info(casadi=ca.__version__),
+        ipopt_options=IPOPT_OPTIONS,
+        ours=dict(first_call_s=first, steady=steady, statuses=counts),
+        ipopt=dict(processes=procs, build_s=builds, wall_s=peer_wall, solve_total_s=solve_total,
+                   statuses=peer_status),
+        throughput_ratio=ratio,
+        dv_excess_of_ipopt=dict(members=int(sel.sum()), median=float(np.median(rel)),
+                                min=float(np.min(rel)), max=float(np.max(rel)),
+                                within_bound=within)), indent=1, default=str))
+
+
+if __name__ == "__main__":
+    main()

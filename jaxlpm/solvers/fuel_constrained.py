@@ -1,0 +1,263 @@
+"""Fuel-optimal transfers with safety constraints (`FuelOptimalTransfer(..., constraints=[...])`):
+the energy-to-fuel homotopy on the general NLP engine, with the states kept so that state path
+constraints can be enforced.
+
+The condensed dual of `jaxlpm.solvers.fuel_optimal` eliminates the states and keeps only the six
+final-state multipliers: constraints on the states do not fit it. Here the energy-optimal
+transfer's own transcription (`transfer_ocp`: the same scaled states, independent variable and
+chief samples, on the family's segmented LGR mesh) takes the smoothed delta-v as its running
+cost (Bertrand & Epenoy 2002; Yue & Duan 2016, eq. 31)
+
+    L = r(s) u_max l_eps(Gamma),   Gamma = sqrt(|u|^2 + (delta u_max)^2) / u_max,
+    l_eps(w) = w - eps w (1 - w),
+
+r = n dt/ds (u and u_max in the solver's control unit; delta smooths |u| at 0 so that the
+integrand is twice differentiable for Newton-KKT: at a coast point its Hessian is
+(1 - eps) / delta per u_max), with the thrust bound (|u|^2 - u_max^2) / u_max^2 <= 0 and the
+safety constraints as the path inequalities of the augmented Lagrangian
+(`jaxlpm.nlp.augmented_lagrangian`). Yue & Duan 2016's pipeline: first the energy-optimal
+transfer with the same constraints and bound (the augmented Lagrangian from the linear model's
+warm start, with the continuation's `FuelALOptions.al`), whose solution, its multipliers scaled by
+`energy_to_fuel_scale`, starts eps = 1 (the same problem up to that scale); then eps runs over a
+fixed schedule down to `FuelALOptions.eps[-1]`, each solve warm-started from the previous one
+(its decision vector, multipliers and penalty), in one `lax.scan` (jit, vmap). Started from the
+linear model's warm start instead, the eps = 1 problem ended INFEASIBLE on the J2 approach of
+`jaxlpm.cases.approach` (the penalty at its cap with the abort-safety drift still inside the
+sphere), though the energy-optimal solution is feasible there.
+
+The reported delta-v is that of the solution's own control, int |u| dt by the mesh's
+quadrature, not the smoothed cost; l_eps(w) >= (1 - eps) w, so the smoothed optimum's delta-v
+exceeds the fuel optimum of the same mesh by at most a fraction eps / (1 - eps) plus the
+smoothing's delta sum_i w_i r_i (a coast point costs delta u_max instead of 0). The solution
+is differentiated by the implicit function theorem at the final KKT point
+(`al_kkt_residual`, eps and delta fixed), never through the continuation.
+"""
+
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+
+from ..compilation import compiled
+from ..collocation.segments import SegmentedMesh
+from ..implicit import root
+from ..nlp.augmented_lagrangian import (ALOptions, al_kkt_residual, augmented_lagrangian,
+                                        stack_kkt_point)
+from ..nlp.homotopy import smoothed_cost
+from ..nlp.newton import NewtonOptions, NLPResult
+from ..nlp.ocp import PathPenalty
+from ..nlp.transcription import objective, unpack
+from ..problems import safety
+from ..problems.energy_optimal import (OnModelData, control_scale, cost_scale, to_solution,
+                                       transfer_ocp)
+from ..problems.fuel_optimal import (FuelOptimalTransfer, delta_v_unit, mesh_grid,
+                                     rocket_fuel)
+from ..problems.scaling import safe_norm
+from ..status import Status
+from .energy_optimal import rung_options
+from .transfer import linear_warm_start
+
+
+BURN_THRESHOLD = 10.0    # a point fires where its throttle exceeds this x delta: a coast point
+#                          (primer S < 1 - eps) has throttle delta S / sqrt((1 - eps)^2 - S^2)
+
+
+@dataclass(frozen=True)
+class FuelALOptions:
+    """Static settings (hashable: one compiled solver per distinct set).
+
+    eps        the continuation's schedule of the smoothing, from 1 (energy-like) down
+    smoothing  delta: |u| is smoothed as sqrt(|u|^2 + (delta u_max)^2)
+    al         the augmented Lagrangian's settings for every step (its inner Newton-KKT's
+               tol_feasibility is multiplied by the mesh's segments, as in
+               `energy_optimal.rung_options`; tol_optimality 1e-8: the smoothing's curvature
+               1/delta at the coast points puts the stationarity's round-off floor near 1e-9)
+    """
+
+    eps: tuple = (1.0, 0.3, 0.1, 0.03, 0.01, 3e-3)
+    smoothing: float = 1e-4
+    # tol_path 1e-7 of the nondimensional g: the thrust exceeds u_max by at most 5e-8 of it, a
+    # keep-out sphere is entered by 5e-8 of its radius (with the safety family's 1e-9 the
+    # energy-optimal start of jaxlpm.cases.approach did not converge on 16 x 8 points: 30
+    # outer iterations, the abort drift 96 m inside its sphere). Below eps ~ 3e-3 the first-order
+    # multiplier updates stall at ~1e-7 (weakly active bound points next to the switches), and
+    # a larger rho only ruins the inner problems' conditioning (measured on the keep-out flyby
+    # of tests/test_fuel_constrained.py: rho 1e10 left stationarity at 1e2).
+    al: ALOptions = field(default_factory=lambda: ALOptions(
+        max_outer=40, tol_path=1e-7, rho_max=1e6,
+        inner=NewtonOptions(max_iterations=40, stall_iterations=0, tol_optimality=1e-8)))
+
+    def __post_init__(self):
+        eps = tuple(float(e) for e in self.eps)
+        if not eps or eps[0] != 1.0 or any(not 0.0 < b < a for a, b in zip(eps, eps[1:])):
+            raise ValueError(f"eps must start at 1 and decrease, staying positive, got "
+                             f"{self.eps!r}")
+        if not 0.0 < self.smoothing < 1.0:
+            raise ValueError(f"smoothing must be in (0, 1) (a fraction of u_max), got "
+                             f"{self.smoothing!r}")
+        object.__setattr__(self, "eps", eps)
+
+
+def time_rate(model, s, data, p):
+    """r = n dt/ds at anomaly s: (1 - e^2)^(3/2) / (1 + e cos s)^2 on the linear model (true
+    anomaly), the node data's q on the LVLH models (`transfer_ocp`)."""
+    if model == "linear":
+        return (1.0 - p["e"] ** 2) ** 1.5 / (1.0 + p["e"] * jnp.cos(s)) ** 2
+    return data[-1]
+
+
+@dataclass(frozen=True)
+class SmoothedDeltaV:
+    """The running cost r u_max l_eps(Gamma) (module docstring) of `model`, eps and delta in
+    the params (hashable: one compiled solver per model)."""
+
+    model: str
+
+    def __call__(self, s, x, u, data, p):
+        umax = p["umax"]
+        w = jnp.sqrt(jnp.dot(u, u) / umax ** 2 + p["delta"] ** 2)
+        return time_rate(self.model, s, data, p) * umax * smoothed_cost(w, p["eps"])
+
+
+@dataclass(frozen=True)
+class DeltaV:
+    """The integrand r |u| of the control's own delta-v (derivative-safe at u = 0)."""
+
+    model: str
+
+    def __call__(self, s, x, u, data, p):
+        return time_rate(self.model, s, data, p) * safe_norm(u)
+
+
+def constrained_ocp(problem: FuelOptimalTransfer, grid):
+    """(ocp, energy ocp, chief, ok, energy problem): the transcription on `grid` (an
+    `LGRMesh`) with the smoothed delta-v (eps = 1), the thrust bound (a `ThrustLimit`, last)
+    and the safety constraints as path inequalities; the energy problem is the
+    energy-optimal transfer with those constraints, and its ocp the same transcription with
+    its running cost (its scaling, solution and dense check are this one's)."""
+    energy = problem.energy_problem(problem.constraints
+                                    + (safety.ThrustLimit(problem.max_acceleration),))
+    energy_ocp, chief, ok = transfer_ocp(energy, grid)
+    umax = problem.max_acceleration / control_scale(energy)
+    zero = jnp.zeros_like(umax)
+    ocp = energy_ocp.replace(running_cost=OnModelData(SmoothedDeltaV(problem.model)),
+                             params={**energy_ocp.params, "umax": umax, "eps": 1.0 + zero,
+                                     "delta": zero})
+    return ocp, energy_ocp, chief, ok, energy
+
+
+def energy_to_fuel_scale(model, p):
+    """c with L_fuel(eps = 1) = c L_energy + const: r |u|^2 / u_max against the energy
+    transfer's 1/2 |u|^2 / (1 + e cos s)^2 (linear, r = (1 - e^2)^(3/2) / (1 + e cos s)^2)
+    or 1/2 q |u|^2 (LVLH, r = q). The energy solution's multipliers times c are the eps = 1
+    problem's."""
+    c = 2.0 / p["umax"]
+    return c * (1.0 - p["e"] ** 2) ** 1.5 if model == "linear" else c
+
+
+def _at(ocp, eps, options):
+    """`ocp` at the continuation's eps, with the options' smoothing."""
+    zero = 0.0 * ocp.params["eps"]
+    return ocp.replace(params={**ocp.params, "eps": eps + zero,
+                               "delta": options.smoothing + zero})
+
+
+def delta_v(z, ocp, grid, unit):
+    """int |u| dt (m/s) of the decision vector z (the mesh's quadrature)."""
+    model = ocp.running_cost.fn.model
+    return unit * objective(z, ocp.replace(running_cost=OnModelData(DeltaV(model))), grid)
+
+
+@root(al_kkt_residual, zero_nonfinite=True)
+def _at_kkt_point(w, ocp, grid):
+    """The solved KKT point w, with derivatives by the implicit function theorem."""
+    return w
+
+
+def _continuation(ocp, grid, energy, options: FuelALOptions, al: ALOptions, unit):
+    """The augmented Lagrangian at every eps of the schedule, warm-started in turn from the
+    energy-optimal solution `energy` (an `ALResult` of the same transcription, its
+    multipliers scaled by `energy_to_fuel_scale`): the final `ALResult`, and per eps its
+    status, delta-v (m/s) and iterations."""
+    c = energy_to_fuel_scale(ocp.running_cost.fn.model, ocp.params)
+    pm = energy.path_multipliers
+    start = (energy.z, c * energy.multipliers,
+             PathPenalty(c * pm.inequality, c * pm.equality, c * pm.bounds, c * pm.rho))
+
+    def step(carry, eps):
+        z, lam, pen = carry
+        res = augmented_lagrangian(_at(ocp, eps, options), grid, z, lam, al, penalty0=pen)
+        out = (res.status, delta_v(res.z, ocp, grid, unit), res.outer_iterations,
+               res.inner_iterations)
+        return (res.z, res.multipliers, res.path_multipliers), (res, out)
+
+    sched = jnp.asarray(options.eps[1:], energy.z.dtype)
+    first = step(start, jnp.asarray(1.0, energy.z.dtype))
+    (_, _, _), (last, outs) = jax.lax.scan(step, first[0], sched)
+    outs = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a[None], b]), first[1][1],
+                                  outs)
+    res = jax.tree_util.tree_map(lambda x: x[-1], last)
+    return res, outs
+
+
+def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
+    valid = problem.validity()
+    problem = problem.sanitized(valid)
+    grid = mesh_grid(mesh)
+    ocp, energy_ocp, chief, ok, energy = constrained_ocp(problem, grid)
+    unit = delta_v_unit(problem)
+    fixed = jax.lax.stop_gradient((energy, ocp, energy_ocp))
+    z0, _ = linear_warm_start(fixed[0].replace(constraints=()), fixed[2], grid)
+    al = rung_options(options.al, mesh.n_segments)
+    first = augmented_lagrangian(fixed[2], grid, z0, options=al)
+    res, (statuses, dvs, outer, inner) = jax.lax.stop_gradient(
+        _continuation(fixed[1], grid, first, options, al, unit))
+    final = _at(ocp, options.eps[-1], options)
+    w = _at_kkt_point(stack_kkt_point(res), final, grid)
+    z, lam = unpack_kkt(w, res)
+    status = jnp.where(valid, jnp.where(ok, res.status, Status.NONFINITE),
+                       Status.INVALID_INPUT).astype(jnp.int32)
+    result = NLPResult(z=z, multipliers=lam, status=status, iterations=jnp.sum(inner),
+                       constraint_residual=res.constraint_residual,
+                       stationarity_residual=res.stationarity_residual, history=res.history,
+                       regularisation=jnp.zeros((), z.dtype))
+    dv = delta_v(z, final, grid, unit)
+    X, U, _ = unpack(z, final, grid)
+    throttle = safe_norm(U, axis=1) / final.params["umax"]
+    extra = dict(fuel=rocket_fuel(dv, problem), eps=jnp.asarray(options.eps[-1], z.dtype),
+                 smoothed_cost=unit * objective(z, final, grid),
+                 node_throttle=throttle.reshape(mesh.n_segments, mesh.grid.n),
+                 burn_threshold=jnp.asarray(BURN_THRESHOLD * options.smoothing, z.dtype),
+                 eps_schedule=jnp.asarray(options.eps, z.dtype), status_by_eps=statuses,
+                 dv_by_eps=dvs, outer_by_eps=outer, iterations_by_eps=inner,
+                 energy_status=first.status, energy_dv=delta_v(first.z, ocp, grid, unit),
+                 energy_fuel=rocket_fuel(delta_v(first.z, ocp, grid, unit), problem),
+                 energy_cost=cost_scale(energy) * objective(first.z, fixed[2], grid),
+                 energy_node_controls=control_scale(energy) * unpack(first.z, ocp, grid)[1],
+                 outer_iterations=jnp.sum(outer), path_residual=res.path_residual,
+                 complementarity=res.complementarity,
+                 path_multipliers=res.path_multipliers.inequality)
+    sol = to_solution(energy, final, grid, chief, result, status, valid,
+                      method="augmented-lagrangian", extra=extra, cost_unit=unit)
+    stats = {k: v for k, v in sol.stats.items() if k != "cost_true_anomaly"}
+    keep = jnp.where(valid, dv, 0.0)
+    return sol.replace(problem=problem, cost=keep,
+                       stats={**stats, "fuel": jnp.where(valid, stats["fuel"], 0.0)})
+
+
+def unpack_kkt(w, res):
+    """(z, equality multipliers) of a stacked KKT point w (`stack_kkt_point`)."""
+    n, m = res.z.shape[0], res.multipliers.shape[0]
+    return w[:n], w[n:n + m]
+
+
+constrained_fuel_optimal = compiled(_constrained_fuel, static_argnames="options")
+"""Solve a `FuelOptimalTransfer` with safety constraints on one `SegmentedMesh` (breaks as
+fractions of the anomaly span), jit-compiled once per mesh shape and options, vmap-able: a
+`Solution` (SI, LVLH) whose cost is the delta-v int |u| dt (m/s); stats add fuel (kg), eps,
+smoothed_cost (m/s), node_throttle, burn_threshold (the throttle above which a point fires), the continuation's status_by_eps, dv_by_eps (m/s),
+outer_by_eps, iterations_by_eps, energy_dv / energy_fuel (its eps = 1 step: the energy-like
+transfer with the bound and the constraints), the augmented Lagrangian's outer_iterations,
+path_residual, complementarity and path_multipliers, and the dense check of every
+constraint (constraint_violation, the thrust bound last; violation_position m,
+violation_velocity m/s, path_violation: the delta-v beyond the bound, m/s)."""

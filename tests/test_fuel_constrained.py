@@ -1,0 +1,116 @@
+"""Fuel-optimal transfers with safety constraints (issue 22, item 4's solver:
+`jaxlpm.solvers.fuel_constrained`, the energy-to-fuel continuation inside the augmented
+Lagrangian, states kept).
+
+On the keep-out flyby of tests/test_safety.py (e = 0.05, linear model) with a bounded thrust:
+the constrained fuel optimum respects the zone and the bound at every collocation point, costs
+more than the unconstrained fuel optimum of the same mesh (the condensed homotopy, a different
+method), and with the zone shrunk until it is inactive the two methods agree to the
+continuation's final smoothing; the implicit gradient of the delta-v with respect to the
+zone's radius matches central differences."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxlpm as lpm
+from jaxlpm import Status
+from jaxlpm.collocation.segments import segmented_lgr, uniform_breaks
+
+ORBIT = lpm.KeplerOrbit(a=7000e3, e=0.05, f0=0.4)
+PERIOD = float(ORBIT.period)
+MESH = segmented_lgr(uniform_breaks(0.0, 1.0, 8), 6)      # 48 points: a modest solve
+
+
+def flyby(radius):
+    zone = lpm.KeepOutEllipsoid(semi_axes=jnp.full(3, radius))
+    return lpm.FuelOptimalTransfer(
+        ORBIT, jnp.array([100.0, -2000.0, 50.0, 0.0, 0.0, 0.0]),
+        jnp.array([0.0, 2000.0, 0.0, 0.0, 0.0, 0.0]), 0.5 * PERIOD, thrust_max=0.5,
+        mass=100.0, isp=300.0, constraints=(zone,))
+
+
+@pytest.fixture(scope="module")
+def solved():
+    """(constrained at R = 1500 m, inactive zone R = 10 m, unconstrained homotopy)."""
+    held = lpm.solve(flyby(1500.0), MESH, throw=False)
+    inactive = lpm.solve(flyby(10.0), MESH, throw=False)
+    free = lpm.solve(flyby(10.0).replace(constraints=()), MESH, throw=False)
+    return held, inactive, free
+
+
+def test_every_continuation_step_converges(solved):
+    for sol in solved[:2]:
+        assert sol.method == "augmented-lagrangian"
+        assert np.all(np.asarray(sol.stats["status_by_eps"]) == Status.SUCCESS)
+        # converged on the mesh; 48 points do not resolve the switches (INACCURATE is the
+        # error estimate speaking, not the solver)
+        assert int(sol.status) in (Status.SUCCESS, Status.INACCURATE)
+
+
+def test_zone_and_bound_hold_at_the_points_and_cost_more(solved):
+    held, _, free = solved
+    r = np.linalg.norm(np.asarray(held.node_states)[:, :3], axis=1)
+    # the augmented Lagrangian's tolerance: g = 1 - |r|^2 / R^2 <= 1e-7
+    assert np.min(r) >= 1500.0 * (1.0 - 1e-7)
+    assert np.min(r) <= 1500.0 * (1.0 + 1e-3)          # active: it rides the sphere
+    u = np.linalg.norm(np.asarray(held.node_controls), axis=1)
+    assert np.max(u) <= float(held.problem.max_acceleration) * (1.0 + 1e-7)
+    assert float(held.cost) > float(free.cost) * 1.01
+    assert float(held.stats["fuel"]) > 0.0
+
+
+def test_inactive_zone_matches_the_condensed_homotopy(solved):
+    """The same mesh, two methods: the augmented Lagrangian stops at eps = 3e-3 with w = |u| /
+    u_max smoothed to sqrt(w^2 + delta^2), delta = 1e-4; the condensed homotopy at eps = 1e-6
+    without smoothing (its delta-v F* is the mesh's fuel optimum to ~1e-6). With C = u_max T
+    (sum of the quadrature weights times u_max), (1 - eps) w <= l_eps(w) and
+    w <= sqrt(w^2 + delta^2) <= w + delta give
+    dv - F* <= (eps F* + delta C (1 + eps) + eps delta^2 C) / (1 - eps)."""
+    _, inactive, free = solved
+    assert int(free.status) in (Status.SUCCESS, Status.INACCURATE)
+    eps, delta = inactive.stats["eps"], lpm.FuelALOptions().smoothing
+    F, C = float(free.cost), float(free.problem.max_acceleration * free.duration)
+    bound = (eps * F + delta * C * (1 + eps) + eps * delta**2 * C) / (1 - eps)
+    gap = float(inactive.cost) - F
+    assert -1e-6 * F <= gap <= bound
+
+
+def test_delta_v_gradient_with_respect_to_the_zone():
+    """The implicit gradient at the final KKT point against central differences (step 0.5 m:
+    the delta-v is smooth in R while the active set stays; both solves converge to 1e-7 in
+    the path values, ~1e-9 in the delta-v)."""
+    def dv(R):
+        return lpm.solve(flyby(R), MESH, throw=False).cost
+
+    g = float(jax.grad(dv)(1500.0))
+    fd = (float(dv(1500.5)) - float(dv(1499.5))) / 1.0
+    assert g > 0.0
+    assert g == pytest.approx(fd, rel=1e-3)
+
+
+def test_bad_input():
+    prob = flyby(1500.0)
+    with pytest.raises(ValueError, match="thrust bound"):
+        lpm.solve(prob.replace(constraints=(lpm.ThrustLimit(1e-3),)), MESH)
+    with pytest.raises(ValueError, match="augmented-lagrangian"):
+        lpm.solve(prob, MESH, method="homotopy")
+    with pytest.raises(ValueError, match="has none"):
+        lpm.solve(prob.replace(constraints=()), MESH, method="augmented-lagrangian")
+    with pytest.raises(ValueError, match="eps"):
+        lpm.solve(prob, MESH, options=lpm.FuelALOptions(eps=(0.5, 0.1)))
+
+
+def test_approach_case_is_registered_and_valid():
+    """`jaxlpm reproduce approach` (ten minutes on two cores: run by hand, numbers in
+    docs/approach.md) builds valid problems with its four constraints on the J2 model."""
+    from jaxlpm.cases import CASES, approach
+
+    assert CASES["approach"] is approach
+    energy, fuel = approach.problems()
+    for problem in (energy, fuel):
+        problem.validate()
+        assert problem.model == "j2"
+        assert [type(c).__name__ for c in problem.constraints] == [
+            "KeepOutEllipsoid", "ApproachCone", "SpeedLimit", "PassiveSafety"]
