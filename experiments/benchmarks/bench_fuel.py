@@ -17,10 +17,12 @@ to eps = 1e-6). Peer: the same NLP written in CasADi with the states kept, the b
 |U_i|^2 <= u_max^2 as a constraint, and the smoothed cost of our augmented-Lagrangian method
 (`jaxlpm.solvers.fuel_constrained`): sum_i c_i l_eps(w_i), w_i = sqrt(|U_i|^2 / u_max^2 +
 delta^2), delta = 1e-4, continued over eps = 1, 0.3, 0.1, 0.03, 0.01, 3e-3, each solve
-warm-started (primal and multipliers). Written on the exact L1 cost, in the cone form or with
-the norm smoothed at delta = 1e-6 (with or without a continuation in delta), IPOPT reached its
-iteration limit on most problems (issue 22 note): the eps continuation is what makes it a
-peer. IPOPT (MUMPS, exact Hessian, tol 1e-9) from the straight line between the ends and
+warm-started (primal and multipliers). Not yet a working peer: measured 2026-12-05 with
+--members 16, IPOPT solves eps = 1 in 3-5 iterations and then reaches its 500-iteration limit
+at eps = 0.3 on every member (also with tol 1e-8 and acceptable_tol 1e-6, with the adaptive
+barrier strategy, and without its scaling); written on the exact L1 cost, in the cone form or
+with the norm smoothed at delta = 1e-6 (with or without a continuation in delta), it reached
+its limit too (issue 22 note). No throughput ratio is reported until it converges. IPOPT (MUMPS, exact Hessian, tol 1e-9) from the straight line between the ends and
 zero control; the solver is built once per process and each problem's matrices and ends enter
 as parameters. IPOPT runs in as many processes as this machine has cores (ours uses them
 through XLA).
@@ -234,6 +236,10 @@ def main():
     ok_peer = np.array([r["status"] == "Solve_Succeeded" for r in peer])
     sel = both & ok_peer
     # IPOPT's smoothed optimum costs more than the mesh's fuel optimum, by at most `bound`
+    if not sel.any():
+        print(f"no member converged with both solvers (IPOPT: {peer_status}): no ratio",
+              flush=True)
+        return
     rel = (ipopt_dv[sel] - ours_dv[sel]) / ours_dv[sel]
     C = np.asarray(problems.max_acceleration * problems.duration)[sel]
     eps = EPS[-1]
