@@ -27,7 +27,6 @@ import time
 import jax.numpy as jnp
 import numpy as np
 
-from ..collocation.segments import aligned_breaks, segmented_lgr, uniform_breaks
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
 from ..problems import EnergyOptimalTransfer, safety
@@ -36,7 +35,8 @@ from ..solution.accuracy import DEFAULT_TOLERANCE, judge
 from ..solvers.api import solve
 from ..solvers.energy_optimal import refine_transfer
 from ..solvers.fuel_constrained import FuelALOptions
-from ..solvers.fuel_optimal import burn_arcs, switching_fractions
+from ..solvers.fuel_optimal import burn_arcs
+from ..solvers.fuel_optimal import refine_transfer as refine_fuel
 from ..solvers.refine import MeshLadder
 from ..status import Status
 from .result import finish
@@ -104,22 +104,16 @@ def _judge(sol):
 
 
 def solve_fuel(problem, log):
-    """A uniform mesh of FUEL_SEGMENTS LGR segments, then up to FUEL_PASSES - 1 meshes of as
-    many segments with breaks at the previous solution's switches, until SUCCESS."""
-    options = FuelALOptions()
-    sol = None
-    for k in range(FUEL_PASSES):
-        breaks = (uniform_breaks(0.0, 1.0, FUEL_SEGMENTS) if sol is None else
-                  aligned_breaks(0.0, 1.0, FUEL_SEGMENTS, switching_fractions(sol)))
-        t = time.perf_counter()
-        sol = _judge(solve(problem, segmented_lgr(breaks, FUEL_POINTS), options=options,
-                           throw=False))
-        log(f"fuel-optimal, mesh pass {k + 1}: {Status(int(sol.status)).name}, delta-v "
-            f"{float(sol.cost):.6f} m/s, error estimate {float(sol.stats['error_position']):.2e} "
-            f"m, largest violation {float(jnp.max(sol.stats['constraint_violation'])):.2e} "
-            f"({time.perf_counter() - t:.1f} s)")
-        if int(sol.status) != Status.INACCURATE:
-            break
+    """`refine_transfer` of the fuel family on FUEL_SEGMENTS LGR segments: a uniform mesh,
+    then up to FUEL_PASSES - 1 meshes with breaks at the previous solution's switches, until
+    the judge leaves it SUCCESS."""
+    t = time.perf_counter()
+    sol = refine_fuel(problem, FuelALOptions(), _judge, segments=(FUEL_SEGMENTS,),
+                      points=FUEL_POINTS, passes=FUEL_PASSES - 1)
+    log(f"fuel-optimal with safety constraints: {Status(int(sol.status)).name}, delta-v "
+        f"{float(sol.cost):.6f} m/s, error estimate {float(sol.stats['error_position']):.2e} "
+        f"m, largest violation {float(jnp.max(sol.stats['constraint_violation'])):.2e}, "
+        f"{int(sol.stats['mesh_passes'])} mesh passes ({time.perf_counter() - t:.1f} s)")
     return sol
 
 
@@ -131,6 +125,7 @@ def violations(sol):
 
 def summary(sol, fuel_family):
     st = sol.stats
+    t = np.linspace(0.0, float(sol.duration), 4001)
     out = {"status": Status(int(sol.status)).name,
            "delta_v_mps": float(sol.delta_v),
            "violations": violations(sol),
@@ -138,8 +133,7 @@ def summary(sol, fuel_family):
            "error_velocity_mps": float(st["error_velocity"]),
            "mesh_points": int(np.asarray(sol.times).size),
            "min_range_to_target_m": float(np.min(np.linalg.norm(
-               np.asarray(sol.states(np.linspace(0.0, float(sol.duration), 4001)))[:, :3],
-               axis=1)))}
+               np.asarray(sol.states(t))[:, :3], axis=1)))}
     if fuel_family:
         out.update(fuel_g=1e3 * float(st["fuel"]),
                    thrust_excess_dv_mps=float(st["path_violation"]),
@@ -151,8 +145,7 @@ def summary(sol, fuel_family):
         out.update(cost_m2ps3=float(sol.cost),
                    fuel_g=1e3 * float(sol.propellant(MASS, ISP)),
                    max_acceleration_mps2=float(np.max(np.linalg.norm(
-                       np.asarray(sol.controls(np.linspace(0.0, float(sol.duration), 4001))),
-                       axis=1))))
+                       np.asarray(sol.controls(t)), axis=1))))
     return out
 
 

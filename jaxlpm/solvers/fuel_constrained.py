@@ -191,13 +191,14 @@ def _continuation(ocp, grid, energy, options: FuelALOptions, al: ALOptions, unit
                res.inner_iterations)
         return (res.z, res.multipliers, res.path_multipliers), (res, out)
 
-    sched = jnp.asarray(options.eps[1:], energy.z.dtype)
-    first = step(start, jnp.asarray(1.0, energy.z.dtype))
-    (_, _, _), (last, outs) = jax.lax.scan(step, first[0], sched)
-    outs = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a[None], b]), first[1][1],
-                                  outs)
-    res = jax.tree_util.tree_map(lambda x: x[-1], last)
-    return res, outs
+    _, (steps, outs) = jax.lax.scan(step, start, jnp.asarray(options.eps, energy.z.dtype))
+    return jax.tree_util.tree_map(lambda x: x[-1], steps), outs
+
+
+def unpack_kkt(w, res):
+    """(z, equality multipliers) of a stacked KKT point w (`stack_kkt_point`)."""
+    n, m = res.z.shape[0], res.multipliers.shape[0]
+    return w[:n], w[n:n + m]
 
 
 def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
@@ -222,7 +223,8 @@ def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
                        stationarity_residual=res.stationarity_residual, history=res.history,
                        regularisation=jnp.zeros((), z.dtype))
     dv = delta_v(z, final, grid, unit)
-    X, U, _ = unpack(z, final, grid)
+    energy_dv = delta_v(first.z, ocp, grid, unit)
+    U = unpack(z, final, grid)[1]
     throttle = safe_norm(U, axis=1) / final.params["umax"]
     extra = dict(fuel=rocket_fuel(dv, problem), eps=jnp.asarray(options.eps[-1], z.dtype),
                  smoothed_cost=unit * objective(z, final, grid),
@@ -230,8 +232,8 @@ def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
                  burn_threshold=jnp.asarray(BURN_THRESHOLD * options.smoothing, z.dtype),
                  eps_schedule=jnp.asarray(options.eps, z.dtype), status_by_eps=statuses,
                  dv_by_eps=dvs, outer_by_eps=outer, iterations_by_eps=inner,
-                 energy_status=first.status, energy_dv=delta_v(first.z, ocp, grid, unit),
-                 energy_fuel=rocket_fuel(delta_v(first.z, ocp, grid, unit), problem),
+                 energy_status=first.status, energy_dv=energy_dv,
+                 energy_fuel=rocket_fuel(energy_dv, problem),
                  energy_cost=cost_scale(energy) * objective(first.z, fixed[2], grid),
                  energy_node_controls=control_scale(energy) * unpack(first.z, ocp, grid)[1],
                  outer_iterations=jnp.sum(outer), path_residual=res.path_residual,
@@ -245,19 +247,15 @@ def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
                        stats={**stats, "fuel": jnp.where(valid, stats["fuel"], 0.0)})
 
 
-def unpack_kkt(w, res):
-    """(z, equality multipliers) of a stacked KKT point w (`stack_kkt_point`)."""
-    n, m = res.z.shape[0], res.multipliers.shape[0]
-    return w[:n], w[n:n + m]
-
-
 constrained_fuel_optimal = compiled(_constrained_fuel, static_argnames="options")
 """Solve a `FuelOptimalTransfer` with safety constraints on one `SegmentedMesh` (breaks as
 fractions of the anomaly span), jit-compiled once per mesh shape and options, vmap-able: a
 `Solution` (SI, LVLH) whose cost is the delta-v int |u| dt (m/s); stats add fuel (kg), eps,
-smoothed_cost (m/s), node_throttle, burn_threshold (the throttle above which a point fires), the continuation's status_by_eps, dv_by_eps (m/s),
-outer_by_eps, iterations_by_eps, energy_dv / energy_fuel (its eps = 1 step: the energy-like
-transfer with the bound and the constraints), the augmented Lagrangian's outer_iterations,
+smoothed_cost (m/s), node_throttle, burn_threshold (the throttle above which a point
+fires), the continuation's status_by_eps, dv_by_eps (m/s),
+outer_by_eps, iterations_by_eps, energy_status / energy_dv / energy_fuel / energy_cost /
+energy_node_controls (the energy-optimal start: the transfer with the bound and the
+constraints), the augmented Lagrangian's outer_iterations,
 path_residual, complementarity and path_multipliers, and the dense check of every
 constraint (constraint_violation, the thrust bound last; violation_position m,
 violation_velocity m/s, path_violation: the delta-v beyond the bound, m/s)."""
