@@ -12,6 +12,7 @@ import pytest
 
 import jaxlpm as lpm
 from jaxlpm import Status
+from jaxlpm.solution.accuracy import refinement_error
 from jaxlpm.solvers.refine import split_breaks
 
 X0 = jnp.array([10e3, 10e3, 0.0, 4.0, -3.0, 0.0])
@@ -49,6 +50,24 @@ def test_split_breaks_puts_the_pieces_where_the_error_is():
     b = split_breaks([-1.0, 0.0, 1.0], [1e-12, 1e-4], 8)
     assert b.size == 9 and b[0] == -1.0 and b[-1] == 1.0 and np.all(np.diff(b) > 0)
     assert np.sum(b < 0.0) == 1            # the resolved segment keeps one piece
+
+
+def test_refinement_error_splits_where_a_constraint_fails_between_the_nodes():
+    """A segment whose dense check exceeds the tolerance kappa times weighs e_max kappa^4
+    (it gets kappa times the pieces of the least accurate segment); one within it keeps its
+    own error."""
+    tol = lpm.Tolerance(position=0.1, velocity=1e-4, path=1e-4)
+    stats = dict(segment_error=jnp.array([1e-6, 1e-9, 1e-9, 1e-9]),
+                 segment_violation=jnp.array([[0.0, 0.0, 0.0], [0.05, 0.0, 0.0],
+                                              [0.0, 3e-4, 0.0], [0.2, 0.0, 5e-4]]))
+    w = np.asarray(refinement_error(stats, tol))
+    np.testing.assert_allclose(w, [1e-6, 1e-9, 1e-6 * 3.0 ** 4, 1e-6 * 5.0 ** 4], rtol=1e-12)
+    b = split_breaks([-1.0, -0.5, 0.0, 0.5, 1.0], w, 12)
+    pieces = np.histogram(b[:-1], bins=[-1.0, -0.5, 0.0, 0.5, 1.0])[0]
+    assert pieces[1] == 1 and pieces[3] > pieces[2] > pieces[0]
+    # without safety constraints the weight is the relative error itself
+    assert refinement_error({"segment_error": stats["segment_error"]}, tol) is \
+        stats["segment_error"]
 
 
 # ---- the estimate against the flown miss -------------------------------------------------

@@ -230,6 +230,9 @@ def test_coarse_fixed_grid_is_inaccurate_where_the_constraint_fails_between_node
     assert depth > TOL.position
     # the solver's check (2.4 points per node) finds the depth the 20001 times find, to 10 %
     assert float(sol.stats["constraint_violation"][0]) == pytest.approx(depth, rel=0.1)
+    # one segment: its violation (m, m/s, delta-v beyond a bound) is the whole check's
+    np.testing.assert_array_equal(np.asarray(sol.stats["segment_violation"]),
+                                  [[float(sol.stats["violation_position"]), 0.0, 0.0]])
 
 
 def test_bad_constraints_raise(flyby):

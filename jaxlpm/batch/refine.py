@@ -1,6 +1,7 @@
 """Batched mesh refinement of energy-optimal transfers (`jaxlpm.solvers.refine`): every member
 is solved on the ladder's first rung; only the members that come out INACCURATE go on to the
-next rung, each on its own breaks (split where its own error is) and warm-started from its own
+next rung, each on its own breaks (split where its own error is, and where its safety
+constraints are violated between the nodes: `refinement_error`) and warm-started from its own
 previous solution. A rung's mesh shape is fixed, its breaks an array leaf, so each rung is one
 compiled function whatever the members and breaks (`lax.map` over groups of `width` members).
 """
@@ -17,6 +18,7 @@ from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.newton import NewtonOptions
 from ..problems.energy_optimal import scaled_rows
 from ..solution import DEFAULT_TOLERANCE, judge
+from ..solution.accuracy import refinement_error
 from ..solvers.energy_optimal import rung_options
 from ..solvers.refine import DEFAULT_LADDER, interpolated_guess, split_breaks
 from ..solvers.transfer import newton_transfer
@@ -70,7 +72,7 @@ def _rung_function(shape, previous, options, tolerance, width, record, gradients
             sol, extra = solve(problem, breaks, prev)[1], {}
         X, U = scaled_rows(sol)
         return record(sol) | extra, dict(breaks=breaks, X=X, U=U,
-                                         segment_error=sol.stats["segment_error"])
+                                         error=refinement_error(sol.stats, tolerance))
 
     return jax.jit(lambda ps, bs, prev: map_in_groups(member, (ps, bs, prev), width))
 
@@ -103,7 +105,7 @@ def refine_batch(problems, *, ladder=DEFAULT_LADDER, tolerance=DEFAULT_TOLERANCE
         else:
             breaks = np.stack([split_breaks(b, e, k) for b, e in
                                zip(np.asarray(carry["breaks"]),
-                                   np.asarray(carry["segment_error"]))])
+                                   np.asarray(carry["error"]))])
         fn = _rung_function(shape, previous, rung_options(options, k), tolerance, width, record,
                             gradients)
         recs, new_carry = fn(_take(problems, todo), jnp.asarray(breaks),

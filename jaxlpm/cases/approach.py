@@ -31,7 +31,7 @@ from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
 from ..problems import EnergyOptimalTransfer, safety
 from ..problems.fuel_optimal import FuelOptimalTransfer
-from ..solution.accuracy import DEFAULT_TOLERANCE, judge
+from ..solution.accuracy import DEFAULT_TOLERANCE, Judge
 from ..solvers.api import solve
 from ..solvers.energy_optimal import refine_transfer
 from ..solvers.fuel_constrained import FuelALOptions
@@ -99,16 +99,12 @@ def problems():
     return energy, fuel
 
 
-def _judge(sol):
-    return judge(sol, DEFAULT_TOLERANCE)
-
-
 def solve_fuel(problem, log):
     """`refine_transfer` of the fuel family on FUEL_SEGMENTS LGR segments: a uniform mesh,
     then up to FUEL_PASSES - 1 meshes with breaks at the previous solution's switches, until
     the judge leaves it SUCCESS."""
     t = time.perf_counter()
-    sol = refine_fuel(problem, FuelALOptions(), _judge, segments=(FUEL_SEGMENTS,),
+    sol = refine_fuel(problem, FuelALOptions(), Judge(), segments=(FUEL_SEGMENTS,),
                       points=FUEL_POINTS, passes=FUEL_PASSES - 1)
     log(f"fuel-optimal with safety constraints: {Status(int(sol.status)).name}, delta-v "
         f"{float(sol.cost):.6f} m/s, error estimate {float(sol.stats['error_position']):.2e} "
@@ -160,7 +156,7 @@ def compute(log=print):
     log(f"energy-optimal without safety constraints: {Status(int(free_energy.status)).name}, "
         f"cost {float(free_energy.cost):.6e} m^2/s^3 ({time.perf_counter() - t0:.1f} s)")
     t = time.perf_counter()
-    e_sol = refine_transfer(energy, ENERGY_OPTIONS, _judge, ENERGY_LADDER)
+    e_sol = refine_transfer(energy, ENERGY_OPTIONS, Judge(), ENERGY_LADDER)
     log(f"energy-optimal with safety constraints: {Status(int(e_sol.status)).name}, cost "
         f"{float(e_sol.cost):.6e} m^2/s^3, rung {int(e_sol.stats['rung']) + 1} of "
         f"{len(ENERGY_LADDER.rungs)} ({time.perf_counter() - t:.1f} s)")

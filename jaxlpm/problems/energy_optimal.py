@@ -51,6 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import Checked, Rule, coerce_sequences, is_concrete
+from ..collocation.segments import LGRMesh
 from ..constants import J2_EARTH, R_EARTH
 from ..dynamics import (lvlh_frame_motion, relative_lvlh_acceleration,
                         tschauner_hempel_matrix)
@@ -371,6 +372,10 @@ def safety_stats(problem: EnergyOptimalTransfer, grid, X, U, tau, s, t):
     path_violation        the delta-v beyond the thrust limits, int max(|u| - u_max, 0) dt
                           (m/s, the trapezoidal rule on the points; the fuel-optimal
                           family's measure)
+    segment_violation     (K, 3) the same three per segment of the grid (position m,
+                          velocity m/s, delta-v beyond the bound m/s; K = 1 for a `Grid`):
+                          where mesh refinement splits for the constraints
+                          (`jaxlpm.solution.accuracy.refinement_error`)
     """
     cons = problem.constraints
     Xc = jax.vmap(lambda tk: grid.interpolate_state(X[support_rows(grid)], tk))(tau)
@@ -381,18 +386,28 @@ def safety_stats(problem: EnergyOptimalTransfer, grid, X, U, tau, s, t):
     v = jax.vmap(safety.violations, in_axes=(None, 0, 0, 0, 0))(cons, x_si, u_si, t, drift)
     worst = jnp.maximum(jnp.max(v, axis=0), 0.0)
 
-    def largest(kinds, values):
-        picked = [values[i] for i, c in enumerate(cons) if isinstance(c, kinds)]
-        return jnp.max(jnp.stack(picked)) if picked else jnp.zeros((), X.dtype)
-
+    k = grid.n_segments if isinstance(grid, LGRMesh) else 1
     excess = jnp.maximum(v, 0.0)
-    dv = [jnp.sum(0.5 * jnp.diff(t) * (excess[1:, i] + excess[:-1, i]))
-          for i, c in enumerate(cons) if isinstance(c, safety.ThrustLimit)]
+    # the rows of the check mesh's segment-major pieces, the last (the final state) counted
+    # with the last segment; the trapezoid between rows j and j + 1 belongs to row j's segment
+    per_segment = jnp.max(excess[:-1].reshape(k, -1, excess.shape[1]), axis=1)
+    per_segment = per_segment.at[-1].max(excess[-1])
+    trapezoids = (0.5 * jnp.diff(t)[:, None] * (excess[1:] + excess[:-1])).reshape(
+        k, -1, excess.shape[1]).sum(axis=1)
+
+    def largest(kinds, values):
+        picked = [values[..., i] for i, c in enumerate(cons) if isinstance(c, kinds)]
+        return (jnp.max(jnp.stack(picked), axis=0) if picked
+                else jnp.zeros(values.shape[:-1], X.dtype))
+
+    position = (safety.KeepOutEllipsoid, safety.ApproachCone, safety.PassiveSafety)
     return dict(constraint_violation=worst,
-                violation_position=largest((safety.KeepOutEllipsoid, safety.ApproachCone,
-                                            safety.PassiveSafety), worst),
+                violation_position=largest(position, worst),
                 violation_velocity=largest(safety.SpeedLimit, worst),
-                path_violation=jnp.max(jnp.stack(dv)) if dv else jnp.zeros((), X.dtype))
+                path_violation=largest(safety.ThrustLimit, jnp.sum(trapezoids, axis=0)),
+                segment_violation=jnp.stack([largest(position, per_segment),
+                                             largest(safety.SpeedLimit, per_segment),
+                                             largest(safety.ThrustLimit, trapezoids)], axis=1))
 
 
 def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status, valid,

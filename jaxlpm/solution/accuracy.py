@@ -91,6 +91,24 @@ def inaccurate(stats, tolerance: Tolerance):
     return ~ok
 
 
+def refinement_error(stats, tolerance: Tolerance):
+    """(K,) the error by which mesh refinement shares out a rung's segments
+    (`jaxlpm.solvers.refine.split_breaks`, pieces in proportion to its fourth root): each
+    segment's relative error (`segment_error`), raised where the dense check of the safety
+    constraints in that segment (`segment_violation`: m, m/s, delta-v beyond a thrust bound)
+    exceeds the tolerance by kappa > 1 to e_max kappa^4 (e_max the largest segment error), so
+    that such a segment gets kappa times the pieces of the least accurate one: a path that
+    rides a constraint leaves it between the nodes where its nodes are sparse (Betts 2010,
+    sec. 4.7.5: refine where the path constraints are not met between the grid points)."""
+    error = stats["segment_error"]
+    if "segment_violation" not in stats:
+        return error
+    limits = jnp.asarray([tolerance.position, tolerance.velocity, tolerance.path], error.dtype)
+    kappa = jnp.max(stats["segment_violation"] / limits, axis=-1)
+    e_max = jnp.maximum(jnp.max(error, axis=-1, keepdims=True), jnp.finfo(error.dtype).tiny)
+    return jnp.where(kappa > 1.0, jnp.maximum(error, e_max * kappa ** 4), error)
+
+
 def judge(solution, tolerance: Tolerance):
     """The solution with SUCCESS turned into INACCURATE where its estimate exceeds
     `tolerance` (works under jit and vmap; a family without the estimate is returned as it
@@ -101,3 +119,17 @@ def judge(solution, tolerance: Tolerance):
                        & inaccurate(solution.stats, tolerance),
                        Status.INACCURATE, solution.status).astype(jnp.int32)
     return solution.replace(status=status)
+
+
+@dataclass(frozen=True)
+class Judge:
+    """`judge` bound to a tolerance: what the families' `solve` and mesh refinement take
+    (called on a solution it sets INACCURATE; `refinement_error` says where to split)."""
+
+    tolerance: Tolerance = DEFAULT_TOLERANCE
+
+    def __call__(self, solution):
+        return judge(solution, self.tolerance)
+
+    def refinement_error(self, solution):
+        return refinement_error(solution.stats, self.tolerance)

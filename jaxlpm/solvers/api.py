@@ -20,7 +20,7 @@ Grids count their points: `lgl(65)` has 65 LGL points (Mei 2010's degree N = 64)
 import numpy as np
 
 from .._validation import is_concrete, require_x64
-from ..solution import DEFAULT_TOLERANCE, Solution, SolveError, Tolerance, judge
+from ..solution import DEFAULT_TOLERANCE, Judge, Solution, SolveError, Tolerance
 from ..status import Status
 from . import energy_optimal, fuel_optimal, min_time
 from . import finite_burn, impulsive, lqr
@@ -55,8 +55,7 @@ def solve(problem, grid=None, *, method=None, options=None, tolerance=None,
     tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
     if not isinstance(tolerance, Tolerance):
         raise ValueError(f"tolerance must be a jaxlpm Tolerance, got {tolerance!r:.60}")
-    solution = family.solve(problem, grid, method, options,
-                            lambda sol: judge(sol, tolerance))
+    solution = family.solve(problem, grid, method, options, Judge(tolerance))
     if (throw and is_concrete(solution.status) and np.ndim(solution.status) == 0
             and int(solution.status) != Status.SUCCESS):
         raise SolveError(solution)

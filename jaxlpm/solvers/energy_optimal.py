@@ -16,7 +16,8 @@ constraint_residual, stationarity_residual, the error estimate between the nodes
 `jaxlpm.solution.accuracy`), and per method: rcond, node_states_th, costates_th (the laws),
 iterations, history, costates_scaled (Newton-KKT), rung (the refinement rung, `solve` without
 a grid); with safety constraints also constraint_violation, violation_position,
-violation_velocity (the dense check in SI, `safety_stats`), outer_iterations, path_residual,
+violation_velocity, segment_violation (the dense check in SI, `safety_stats`),
+outer_iterations, path_residual,
 complementarity and path_multipliers.
 
 `solve(problem)` without a grid, for a concrete problem, refines the mesh (`refine_transfer`:

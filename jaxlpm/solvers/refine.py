@@ -10,7 +10,9 @@ rung to the next:
               al. eq. 38) to the power `SPLIT_EXPONENT` (largest remainder, at least one
               each), and every current segment is cut evenly into its share: the segments
               that resolve the solution keep one piece, the others are split where the error
-              is;
+              is; a segment where a safety constraint is violated between the nodes beyond
+              the tolerance weighs as the least accurate one times the excess to the fourth
+              (`jaxlpm.solution.accuracy.refinement_error`);
   p (degree)  a rung may raise n (the default ladder's last rung doubles it).
 Each rung is warm-started from the previous solution, its state polynomial and control
 interpolated onto the new mesh (`interpolated_guess`). Refinement stops at the first rung whose
@@ -70,13 +72,16 @@ def split_breaks(breaks, segment_error, k_new: int) -> np.ndarray:
     return np.concatenate(pieces + [b[-1:]])
 
 
-def next_mesh(rung, previous=None) -> LGRMesh:
+def next_mesh(rung, previous=None, judge=None) -> LGRMesh:
     """The mesh of `rung` (K, n): uniform for the first, else the previous solution's breaks
-    split by its segment errors (`split_breaks`)."""
+    split by its segment errors (`split_breaks`; with a `jaxlpm.solution.Judge`, its
+    `refinement_error`: raised where safety constraints are violated between the nodes)."""
     k, n = rung
     if previous is None or not isinstance(previous.grid, LGRMesh):
         return lgr_mesh(k, n)
-    return lgr_mesh(k, n, split_breaks(previous.grid.breaks, previous.stats["segment_error"], k))
+    error = (previous.stats["segment_error"] if judge is None
+             else judge.refinement_error(previous))
+    return lgr_mesh(k, n, split_breaks(previous.grid.breaks, error, k))
 
 
 def interpolated_guess(rows, controls, grid, mesh):
@@ -92,11 +97,11 @@ def interpolated_guess(rows, controls, grid, mesh):
 def refine(solve_on, guess, ladder: MeshLadder, judge):
     """Run the ladder (module docstring) for one concrete problem: solve_on(mesh, z0) -> a
     `Solution` (z0 None on the first rung), guess(solution, mesh) -> z0 for the next mesh,
-    judge(solution) -> the solution with INACCURATE set. Returns the last solution, with
+    judge: a `jaxlpm.solution.Judge` (it sets INACCURATE and says where to split). Returns the last solution, with
     stats["rung"] the index of the rung it was solved on."""
     solution = None
     for index, rung in enumerate(ladder.rungs):
-        mesh = next_mesh(rung, solution)
+        mesh = next_mesh(rung, solution, judge)
         usable = solution is not None and int(solution.status) == Status.INACCURATE
         z0 = guess(solution, mesh) if usable else None
         solution = judge(solve_on(mesh, z0))
