@@ -11,27 +11,35 @@ The transcription (both solvers): the fuel-optimal family's, on the uniform mesh
 state rows X (K n + 1, 6) in the solver's scaled Tschauner-Hempel units, controls U (K n, 3),
 defects D_k X_k = h_k (A_i X_i + B_i U_i) per segment (A_i, B_i the model's matrices at the
 collocation anomalies, from jaxlpm), X_0 = x0, X_end = xf, |U_i| <= u_max, cost the delta-v
-sum_i c_i |U_i| / u_max (c: jaxlpm's weights). Ours: `jaxlpm.solve(problem, mesh)` vmapped
-over the batch (the states eliminated, the energy-to-fuel homotopy on the six-dimensional dual
-to eps = 1e-6). Peer: the same NLP written in CasADi with the states kept, the bound
-|U_i|^2 <= u_max^2 as a constraint, and the smoothed cost of our augmented-Lagrangian method
-(`jaxlpm.solvers.fuel_constrained`): sum_i c_i l_eps(w_i), w_i = sqrt(|U_i|^2 / u_max^2 +
-delta^2), delta = 1e-4, continued over eps = 1, 0.3, 0.1, 0.03, 0.01, 3e-3, each solve
-warm-started (primal and multipliers). Not yet a working peer: measured 2026-12-05 with
---members 16, IPOPT solves eps = 1 in 3-5 iterations and then reaches its 500-iteration limit
-at eps = 0.3 on every member (also with tol 1e-8 and acceptable_tol 1e-6, with the adaptive
-barrier strategy, and without its scaling); written on the exact L1 cost, in the cone form or
-with the norm smoothed at delta = 1e-6 (with or without a continuation in delta), it reached
-its limit too (issue 22 note). No throughput ratio is reported until it converges. IPOPT (MUMPS, exact Hessian, tol 1e-9) from the straight line between the ends and
-zero control; the solver is built once per process and each problem's matrices and ends enter
-as parameters. IPOPT runs in as many processes as this machine has cores (ours uses them
-through XLA).
+sum_i c_i |U_i| / u_max (c: jaxlpm's weights). Ours: `jaxlpm.solve(problem, mesh)` over the
+batch in one jitted `lax.map` (`jaxlpm.batch.sweep.map_in_groups`, --width members vmapped
+together, default 1; the states eliminated, the energy-to-fuel homotopy on the
+six-dimensional dual to eps = 1e-6). Not vmapped over the whole batch: a vmapped while loop
+runs every member until the slowest stops, and one member of 64 that needs 100 homotopy steps
+(the others 8-25) made the vmapped call 45 s against 5.1 s for `lax.map` one at a time and
+9.3 s in groups of 8 (measured 2026-12-05, 64 members). Peer: the same NLP written in CasADi with the states kept and the delta-v in
+its epigraph form: a throttle variable sigma_i per point, minimise sum_i c_i sigma_i subject to
+the defects, the ends and the cone |U_i|^2 / u_max^2 + delta^2 <= sigma_i^2, delta <= sigma_i <=
+sqrt(1 + delta^2) (so |U_i| <= u_max; at the optimum sigma_i = sqrt(|U_i|^2 / u_max^2 +
+delta^2), the throttle smoothed at delta = 1e-4 u_max, as `jaxlpm.solvers.fuel_constrained`
+smooths it). IPOPT (MUMPS, exact Hessian, tol 1e-9) from the straight line between the ends,
+zero control and sigma = 1/2; the solver is built once per process and each problem's matrices
+and ends enter as parameters. IPOPT runs in as many processes as this machine has cores (ours
+uses them through XLA).
+
+Forms that did not converge (measured 2026-12-05, --members 4 to 16): the cone without delta
+(6 of 8 at the 500-iteration limit: the cone's gradient vanishes at U = sigma = 0, so LICQ fails
+at every coast point); the cone with delta = 1e-5 (3 of 4 at the limit) or 1e-6 (4 of 4); the
+smoothed cost sum c_i l_eps(w_i), w_i = sqrt(|U_i|^2 / u_max^2 + delta^2), with the bound
+|U_i|^2 <= u_max^2, continued over eps = 1, 0.3, ..., 3e-3 and warm-started (every member at
+the limit at eps = 0.3: the objective bounced between 0.66 and 18, Newton's model of the
+smoothed norm overshooting far from its minimum).
 
 Reported: our compile (first call) and steady-state time of the batched call (median), IPOPT's
 build and total solve time over the batch (the processes' wall time), the ratio of the
 throughputs, the statuses, and the delta-v of both (IPOPT's is that of its control, sum_i c_i
-|U_i| / u_max, which exceeds the mesh's fuel optimum by at most (eps F + delta C (1 + eps)) /
-(1 - eps), C = u_max T; ours is that optimum to ~1e-6).
+|U_i| / u_max, which exceeds the mesh's fuel optimum F by at most delta C, C = u_max T: its
+cost is at most F + delta C and at least its delta-v; ours is that optimum to ~1e-6).
 
     PYTHONPATH=. python experiments/benchmarks/bench_fuel.py [--members 256] [--segments 24]
         [--points 8] [--out results/bench_fuel.json]
@@ -39,7 +47,6 @@ throughputs, the statuses, and the delta-v of both (IPOPT's is that of its contr
 
 import argparse
 import json
-import multiprocessing
 import os
 import pathlib
 import sys
@@ -53,14 +60,13 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from common import block, machine_info, timed  # noqa: E402
+from common import batched_solves, machine_info, member, peer_pool  # noqa: E402
 
 import jaxlpm as lpm  # noqa: E402
 from jaxlpm.nlp.transcription import collocation_s  # noqa: E402
 from jaxlpm.problems.fuel_optimal import delta_v_unit, transcribe  # noqa: E402
 
-EPS = (1.0, 0.3, 0.1, 0.03, 0.01, 3e-3)   # the peer's continuation (module docstring)
-DELTA = 1e-4                              # its smoothing of the throttle
+DELTA = 1e-4                              # the peer's smoothing of the throttle
 IPOPT_OPTIONS = {"ipopt.tol": 1e-9, "ipopt.print_level": 0, "ipopt.sb": "yes",
                  "ipopt.hessian_approximation": "exact", "ipopt.linear_solver": "mumps",
                  "ipopt.max_iter": 500, "ipopt.warm_start_init_point": "yes", "print_time": False}
@@ -86,10 +92,6 @@ def dispersion(key, size):
                                    r_eq=lpm.constants.R_EARTH * full)
 
 
-def member(tree, i):
-    return jax.tree_util.tree_map(lambda x: x[i], tree)
-
-
 @jax.jit
 def nlp_data(problem, mesh):
     """The transcription's numbers for the peer: A_i, B_i at the collocation anomalies, the
@@ -111,12 +113,14 @@ def nlp_data(problem, mesh):
 
 
 def build_ipopt(D, K, n):
-    """The peer's NLP (module docstring) with the problem's numbers as parameters."""
+    """The peer's NLP (module docstring) with the problem's numbers as parameters: (solver,
+    constraint bounds lbg, ubg, variable bounds lbx, ubx)."""
     import casadi as ca
 
     m = K * n
     X = ca.SX.sym("X", m + 1, 6)
     U = ca.SX.sym("U", m, 3)
+    sigma = ca.SX.sym("sigma", m)
     A = ca.SX.sym("A", m, 36)
     B = ca.SX.sym("B", m, 18)
     h = ca.SX.sym("h", K)
@@ -135,28 +139,23 @@ def build_ipopt(D, K, n):
     g.append(X[0, :].T - x0)
     g.append(X[m, :].T - xf)
     n_eq = 6 * m + 12
-    # the thrust bound, and the smoothed cost l_eps(w) = w - eps w (1 - w) of the smoothed
-    # throttle w (module docstring); eps a parameter
-    bound = [ca.dot(U[p, :], U[p, :]) / umax**2 - 1.0 for p in range(m)]
-    eps = ca.SX.sym("eps")
-    cost = 0
-    for p in range(m):
-        wp = ca.sqrt(ca.dot(U[p, :], U[p, :]) / umax**2 + DELTA**2)
-        cost += w[p] * umax * (wp - eps * wp * (1.0 - wp))
-    z = ca.vertcat(ca.vec(X), ca.vec(U))
-    params = ca.vertcat(ca.vec(A), ca.vec(B), h, x0, xf, w, umax, eps)
-    nlp = {"x": z, "p": params, "f": cost, "g": ca.vertcat(*g, *bound)}
+    cone = [ca.dot(U[p, :], U[p, :]) / umax**2 + DELTA**2 - sigma[p]**2 for p in range(m)]
+    z = ca.vertcat(ca.vec(X), ca.vec(U), sigma)
+    params = ca.vertcat(ca.vec(A), ca.vec(B), h, x0, xf, w, umax)
+    nlp = {"x": z, "p": params, "f": umax * ca.dot(w, sigma), "g": ca.vertcat(*g, *cone)}
     solver = ca.nlpsol("fuel", "ipopt", nlp, IPOPT_OPTIONS)
     lbg = np.concatenate([np.zeros(n_eq), np.full(m, -np.inf)])
     ubg = np.zeros(n_eq + m)
-    return solver, lbg, ubg, z.shape[0]
+    lbx = np.concatenate([np.full(z.shape[0] - m, -np.inf), np.full(m, DELTA)])
+    ubx = np.concatenate([np.full(z.shape[0] - m, np.inf), np.full(m, np.sqrt(1.0 + DELTA**2))])
+    return solver, lbg, ubg, lbx, ubx
 
 
 def _peer_worker(args):
     """Solve a share of the problems with one IPOPT solver built in this process."""
     D, K, n, data = args
     t0 = time.perf_counter()
-    solver, lbg, ubg, nz = build_ipopt(D, K, n)
+    solver, lbg, ubg, lbx, ubx = build_ipopt(D, K, n)
     build = time.perf_counter() - t0
     m = K * n
     out = []
@@ -164,24 +163,18 @@ def _peer_worker(args):
         A = d["A"].reshape(m, 36)
         B = d["B"].reshape(m, 18)
         params = np.concatenate([A.T.reshape(-1), B.T.reshape(-1), d["h"], d["x0"], d["xf"],
-                                 d["w"], [d["umax"]], [0.0]])
+                                 d["w"], [d["umax"]]])
         frac = np.linspace(0.0, 1.0, m + 1)[:, None]
         X0 = (1 - frac) * d["x0"][None] + frac * d["xf"][None]
-        z0 = np.concatenate([X0.T.reshape(-1), np.zeros(3 * m)])
+        z0 = np.concatenate([X0.T.reshape(-1), np.zeros(3 * m), np.full(m, 0.5)])
         t0 = time.perf_counter()
-        z, lam_g, its = z0, np.zeros(lbg.size), 0
-        for eps in EPS:                          # warm-started continuation in eps
-            params[-1] = eps
-            res = solver(x0=z, p=params, lbg=lbg, ubg=ubg, lam_g0=lam_g)
-            z, lam_g = np.asarray(res["x"]).ravel(), np.asarray(res["lam_g"]).ravel()
-            stats = solver.stats()
-            its += stats["iter_count"]
-            if not stats["success"]:
-                break
+        res = solver(x0=z0, p=params, lbg=lbg, ubg=ubg, lbx=lbx, ubx=ubx)
         dt = time.perf_counter() - t0
-        Us = z[6 * (m + 1):].reshape(3, m).T                 # ca.vec is column-major
+        stats = solver.stats()
+        z = np.asarray(res["x"]).ravel()
+        Us = z[6 * (m + 1):6 * (m + 1) + 3 * m].reshape(3, m).T      # ca.vec is column-major
         out.append(dict(cost=float(np.sum(d["w"] * np.linalg.norm(Us, axis=1))), seconds=dt,
-                        status=stats["return_status"], iterations=its))
+                        status=stats["return_status"], iterations=stats["iter_count"]))
     return build, out
 
 
@@ -191,21 +184,17 @@ def main():
     ap.add_argument("--segments", type=int, default=24)
     ap.add_argument("--points", type=int, default=8)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--width", type=int, default=1,
+                    help="members vmapped together inside the batch's lax.map (module docstring)")
     ap.add_argument("--out", default="results/bench_fuel.json")
     args = ap.parse_args()
     import casadi as ca
 
     problems = dispersion(jax.random.PRNGKey(args.seed), args.members)
     mesh = lpm.segmented_lgr(lpm.uniform_breaks(0.0, 1.0, args.segments), args.points)
-    solve = jax.jit(jax.vmap(lambda p: lpm.solve(p, mesh, throw=False)))
-    t0 = time.perf_counter()
-    sols = block(solve(problems))
-    first = time.perf_counter() - t0
-    steady = timed(lambda: block(solve(problems)), min_repeats=3, budget_s=10.0)
+    sols, first, steady, counts = batched_solves(problems, mesh, args.width)
     status = np.asarray(sols.status)
     ours_dv = np.asarray(sols.cost)
-    counts = {lpm.Status(int(s)).name: int(c) for s, c in zip(*np.unique(status,
-                                                                          return_counts=True))}
     print(f"ours: {args.members} members, first call {first:.1f} s (compiles), steady "
           f"{steady['median_s']:.3f} s per batch; statuses {counts}", flush=True)
 
@@ -216,36 +205,23 @@ def main():
     D = np.asarray(mesh.grid.D)
     procs = len(os.sched_getaffinity(0))
     shares = [(D, args.segments, args.points, data[j::procs]) for j in range(procs)]
-    t0 = time.perf_counter()
-    with multiprocessing.get_context("spawn").Pool(procs) as pool:
-        results = pool.map(_peer_worker, shares)
-    peer_wall = time.perf_counter() - t0
-    builds = [b for b, _ in results]
-    peer = [None] * args.members
-    for j, (_, out) in enumerate(results):
-        for k, r in enumerate(out):
-            peer[j + k * procs] = r
+    builds, peer, peer_wall, peer_status = peer_pool(_peer_worker, shares, args.members)
     solve_total = sum(r["seconds"] for r in peer)
-    peer_status = {}
-    for r in peer:
-        peer_status[r["status"]] = peer_status.get(r["status"], 0) + 1
     # IPOPT's delta-v in the scaled units sum c_i |U_i| / u_max; ours in m/s
     unit = np.asarray(jax.vmap(delta_v_unit)(problems))
     ipopt_dv = np.array([r["cost"] for r in peer]) * unit
     both = (status == lpm.Status.SUCCESS) | (status == lpm.Status.INACCURATE)
     ok_peer = np.array([r["status"] == "Solve_Succeeded" for r in peer])
     sel = both & ok_peer
-    # IPOPT's smoothed optimum costs more than the mesh's fuel optimum, by at most `bound`
+    # IPOPT's smoothed optimum costs more than the mesh's fuel optimum, by at most delta C
     if not sel.any():
         print(f"no member converged with both solvers (IPOPT: {peer_status}): no ratio",
               flush=True)
         return
     rel = (ipopt_dv[sel] - ours_dv[sel]) / ours_dv[sel]
     C = np.asarray(problems.max_acceleration * problems.duration)[sel]
-    eps = EPS[-1]
-    bound = (eps * ours_dv[sel] + DELTA * C * (1 + eps) + eps * DELTA**2 * C) / (1 - eps)
     within = int(np.sum((ipopt_dv[sel] - ours_dv[sel] >= -1e-6 * ours_dv[sel])
-                        & (ipopt_dv[sel] - ours_dv[sel] <= bound)))
+                        & (ipopt_dv[sel] - ours_dv[sel] <= DELTA * C)))
     ratio = (solve_total / procs) / steady["median_s"]
     print(f"IPOPT: {procs} processes, build {max(builds):.1f} s, {peer_wall:.1f} s wall for "
           f"the batch ({solve_total:.1f} s of solves, median "

@@ -1,5 +1,6 @@
 """Timing helpers shared by the benchmark scripts (compile and steady state measured apart)."""
 
+import multiprocessing
 import os
 import platform
 import statistics
@@ -18,6 +19,11 @@ compilation.set_profile("optimized")
 
 def block(tree):
     return jax.block_until_ready(tree)
+
+
+def member(tree, i):
+    """Member i of a batched pytree (leading axis: members)."""
+    return jax.tree_util.tree_map(lambda x: x[i], tree)
 
 
 def timed(fn, *, min_repeats=5, max_repeats=200, budget_s=2.0):
@@ -73,3 +79,39 @@ def machine_info(**versions):
                 **versions, xla_flags=os.environ.get("XLA_FLAGS", ""),
                 openblas_num_threads=os.environ.get("OPENBLAS_NUM_THREADS", ""),
                 loadavg_start=os.getloadavg())
+
+
+def batched_solves(problems, mesh, width):
+    """Our side of a batch benchmark: `jaxlpm.solve` of every member on `mesh` in one jitted
+    `lax.map` (`map_in_groups`, `width` members vmapped together). Returns (solutions, first
+    call s, `timed` steady state, status counts by name)."""
+    import jaxlpm as lpm
+    from jaxlpm.batch.sweep import map_in_groups
+
+    solve = jax.jit(lambda ps: map_in_groups(lambda p: lpm.solve(p, mesh, throw=False), ps,
+                                             width))
+    t0 = time.perf_counter()
+    sols = block(solve(problems))
+    first = time.perf_counter() - t0
+    steady = timed(lambda: block(solve(problems)), min_repeats=3, budget_s=10.0)
+    values, counts = np.unique(np.asarray(sols.status), return_counts=True)
+    return sols, first, steady, {lpm.Status(int(v)).name: int(c) for v, c in zip(values, counts)}
+
+
+def peer_pool(worker, shares, members):
+    """The peer's side: worker(share) -> (build s, [record per problem]) in one spawned
+    process per share, problem j of share i being member i + j len(shares). Returns (builds,
+    records in member order, wall s, status counts)."""
+    procs = len(shares)
+    t0 = time.perf_counter()
+    with multiprocessing.get_context("spawn").Pool(procs) as pool:
+        results = pool.map(worker, shares)
+    wall = time.perf_counter() - t0
+    records = [None] * members
+    for i, (_, out) in enumerate(results):
+        for j, r in enumerate(out):
+            records[i + j * procs] = r
+    statuses = {}
+    for r in records:
+        statuses[r["status"]] = statuses.get(r["status"], 0) + 1
+    return [b for b, _ in results], records, wall, statuses
