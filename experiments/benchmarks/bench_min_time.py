@@ -65,7 +65,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from common import batched_solves, machine_info, member, peer_pool  # noqa: E402
+from common import (batched_solves, eccentric_ends, machine_info, member,  # noqa: E402
+                    peer_pool)
 
 import jaxlpm as lpm  # noqa: E402
 from jaxlpm.nlp.transcription import collocation_s  # noqa: E402
@@ -86,14 +87,7 @@ IPOPT_OPTIONS = {"ipopt.tol": 1e-9, "ipopt.print_level": 0, "ipopt.sb": "yes",
 def dispersion(key, size):
     """B eccentric minimum-time transfers (module docstring), one batched problem."""
     k = jax.random.split(key, 2)
-    e = jax.random.uniform(k[0], (size,), maxval=0.5)
-    a = 7000e3 / (1.0 - e)
-    orbit = lpm.KeplerOrbit(a=a, e=e, i=jnp.zeros(size), raan=jnp.zeros(size),
-                            argp=jnp.zeros(size), f0=jnp.zeros(size),
-                            mu=jnp.full(size, lpm.constants.MU_EARTH))
-    box = jnp.array([4e3, 4e3, 1e3])
-    r = jax.random.uniform(k[1], (size, 3), minval=-1.0, maxval=1.0) * box
-    xf = jnp.concatenate([r, jnp.zeros((size, 3))], axis=1)
+    orbit, xf = eccentric_ends(k[0], k[1], size)
     full = jnp.ones(size)
     bounds = jnp.stack([0.0 * full, T_MAX_PERIODS * orbit.period], axis=1)
     return lpm.MinimumTimeTransfer(orbit, jnp.zeros((size, 6)), xf, THRUST * full,

@@ -115,3 +115,20 @@ def peer_pool(worker, shares, members):
     for r in records:
         statuses[r["status"]] = statuses.get(r["status"], 0) + 1
     return [b for b, _ in results], records, wall, statuses
+
+
+def eccentric_ends(key_e, key_r, size):
+    """(orbit, xf) of the eccentric dispersions of bench_fuel.py and bench_min_time.py: chief
+    perigee radius 7000 km, e uniform in [0, 0.5] (key_e), equatorial, starting at perigee;
+    the end at rest at a point uniform in a box of +-4 km (radial, along-track) and +-1 km
+    (normal) (key_r), LVLH m, m/s."""
+    import jax.numpy as jnp
+    import jaxlpm as lpm
+
+    e = jax.random.uniform(key_e, (size,), maxval=0.5)
+    zero = jnp.zeros(size)
+    orbit = lpm.KeplerOrbit(a=7000e3 / (1.0 - e), e=e, i=zero, raan=zero, argp=zero, f0=zero,
+                            mu=jnp.full(size, lpm.constants.MU_EARTH))
+    r = jax.random.uniform(key_r, (size, 3), minval=-1.0, maxval=1.0) * jnp.array(
+        [4e3, 4e3, 1e3])
+    return orbit, jnp.concatenate([r, jnp.zeros((size, 3))], axis=1)
