@@ -17,14 +17,14 @@ together, default 1; the states eliminated, the energy-to-fuel homotopy on the
 six-dimensional dual to eps = 1e-6). Not vmapped over the whole batch: a vmapped while loop
 runs every member until the slowest stops, and one member of 64 that needs 100 homotopy steps
 (the others 8-25) made the vmapped call 45 s against 5.1 s for `lax.map` one at a time and
-9.3 s in groups of 8 (measured 2026-12-05, 64 members). Peer: the same NLP written in CasADi with the states kept and the delta-v in
-its epigraph form: a throttle variable sigma_i per point, minimise sum_i c_i sigma_i subject to
-the defects, the ends and the cone |U_i|^2 / u_max^2 + delta^2 <= sigma_i^2, delta <= sigma_i <=
-sqrt(1 + delta^2) (so |U_i| <= u_max; at the optimum sigma_i = sqrt(|U_i|^2 / u_max^2 +
-delta^2), the throttle smoothed at delta = 1e-4 u_max, as `jaxlpm.solvers.fuel_constrained`
-smooths it). IPOPT (MUMPS, exact Hessian, tol 1e-9) from the straight line between the ends,
-zero control and sigma = 1/2; the solver is built once per process and each problem's matrices
-and ends enter as parameters. IPOPT runs in as many processes as this machine has cores (ours
+9.3 s in groups of 8 (measured 2026-12-05, 64 members). Peer: the same NLP written in CasADi
+with the states kept and the delta-v in its epigraph form: a throttle variable sigma_i per
+point, minimise sum_i c_i sigma_i subject to the defects, the ends and the cone |U_i|^2 /
+u_max^2 + delta^2 <= sigma_i^2, delta <= sigma_i <= sqrt(1 + delta^2) (so |U_i| <= u_max; at
+the optimum sigma_i = sqrt(|U_i|^2 / u_max^2 + delta^2), the throttle smoothed at delta = 1e-4
+u_max, as `jaxlpm.solvers.fuel_constrained` smooths it). IPOPT (MUMPS, exact Hessian, tol
+1e-9) from the straight line between the ends, zero control and sigma = 1/2; the solver is
+built once per process and each problem's matrices and ends enter as parameters. IPOPT runs in as many processes as this machine has cores (ours
 uses them through XLA).
 
 Forms that did not converge (measured 2026-12-05, --members 4 to 16): the cone without delta
