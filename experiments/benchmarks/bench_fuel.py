@@ -24,8 +24,8 @@ u_max^2 + delta^2 <= sigma_i^2, delta <= sigma_i <= sqrt(1 + delta^2) (so |U_i| 
 the optimum sigma_i = sqrt(|U_i|^2 / u_max^2 + delta^2), the throttle smoothed at delta = 1e-4
 u_max, as `jaxlpm.solvers.fuel_constrained` smooths it). IPOPT (MUMPS, exact Hessian, tol
 1e-9) from the straight line between the ends, zero control and sigma = 1/2; the solver is
-built once per process and each problem's matrices and ends enter as parameters. IPOPT runs in as many processes as this machine has cores (ours
-uses them through XLA).
+built once per process and each problem's matrices and ends enter as parameters. IPOPT runs in
+as many processes as this machine has cores (ours uses them through XLA).
 
 Forms that did not converge (measured 2026-12-05, --members 4 to 16): the cone without delta
 (6 of 8 at the 500-iteration limit: the cone's gradient vanishes at U = sigma = 0, so LICQ fails
