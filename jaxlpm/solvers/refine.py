@@ -97,8 +97,8 @@ def interpolated_guess(rows, controls, grid, mesh):
 def refine(solve_on, guess, ladder: MeshLadder, judge):
     """Run the ladder (module docstring) for one concrete problem: solve_on(mesh, z0) -> a
     `Solution` (z0 None on the first rung), guess(solution, mesh) -> z0 for the next mesh,
-    judge: a `jaxlpm.solution.Judge` (it sets INACCURATE and says where to split). Returns the last solution, with
-    stats["rung"] the index of the rung it was solved on."""
+    judge: a `jaxlpm.solution.Judge` (it sets INACCURATE and says where to split). Returns
+    the last solution, with stats["rung"] the index of the rung it was solved on."""
     solution = None
     for index, rung in enumerate(ladder.rungs):
         mesh = next_mesh(rung, solution, judge)
