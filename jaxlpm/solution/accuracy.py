@@ -98,8 +98,8 @@ def refinement_error(stats, tolerance: Tolerance):
     constraints in that segment (`segment_violation`: m, m/s, delta-v beyond a thrust bound)
     exceeds the tolerance by kappa > 1 to e_max kappa^4 (e_max the largest segment error), so
     that such a segment gets kappa times the pieces of the least accurate one: a path that
-    rides a constraint leaves it between the nodes where its nodes are sparse (Betts 2010,
-    sec. 4.7.5: refine where the path constraints are not met between the grid points)."""
+    rides a constraint leaves it between the nodes where its nodes are sparse, whatever the
+    dynamics' error there."""
     error = stats["segment_error"]
     if "segment_violation" not in stats:
         return error
