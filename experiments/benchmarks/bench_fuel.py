@@ -60,14 +60,16 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from common import (batched_solves, eccentric_ends, machine_info, member,  # noqa: E402
-                    peer_pool)
+from common import (batched_solves, dispersion_arguments, eccentric_ends,  # noqa: E402
+                    machine_info, member, peer_pool)
 
 import jaxlpm as lpm  # noqa: E402
 from jaxlpm.nlp.transcription import collocation_s  # noqa: E402
 from jaxlpm.problems.fuel_optimal import delta_v_unit, transcribe  # noqa: E402
 
 DELTA = 1e-4                              # the peer's smoothing of the throttle
+# warm_start_init_point: as measured in BENCHMARKS.md (each solve starts from the same guess,
+# no multipliers passed)
 IPOPT_OPTIONS = {"ipopt.tol": 1e-9, "ipopt.print_level": 0, "ipopt.sb": "yes",
                  "ipopt.hessian_approximation": "exact", "ipopt.linear_solver": "mumps",
                  "ipopt.max_iter": 500, "ipopt.warm_start_init_point": "yes", "print_time": False}
@@ -173,13 +175,7 @@ def _peer_worker(args):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--members", type=int, default=256)
-    ap.add_argument("--segments", type=int, default=24)
-    ap.add_argument("--points", type=int, default=8)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--width", type=int, default=1,
-                    help="members vmapped together inside the batch's lax.map (module docstring)")
-    ap.add_argument("--out", default="results/bench_fuel.json")
+    dispersion_arguments(ap, "results/bench_fuel.json")
     args = ap.parse_args()
     import casadi as ca
 

@@ -65,8 +65,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from common import (batched_solves, eccentric_ends, machine_info, member,  # noqa: E402
-                    peer_pool)
+from common import (batched_solves, dispersion_arguments, eccentric_ends,  # noqa: E402
+                    machine_info, member, peer_pool)
 
 import jaxlpm as lpm  # noqa: E402
 from jaxlpm.nlp.transcription import collocation_s  # noqa: E402
@@ -246,15 +246,9 @@ def _peer_worker(args):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--members", type=int, default=256)
-    ap.add_argument("--segments", type=int, default=24)
-    ap.add_argument("--points", type=int, default=8)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--width", type=int, default=1,
-                    help="members vmapped together inside the batch's lax.map (module docstring)")
+    dispersion_arguments(ap, "results/bench_min_time.json")
     ap.add_argument("--thrust-equality", action="store_true",
                     help="the peer's thrust as |U| = u_max (default |U| <= u_max)")
-    ap.add_argument("--out", default="results/bench_min_time.json")
     args = ap.parse_args()
     import casadi as ca
 

@@ -132,3 +132,15 @@ def eccentric_ends(key_e, key_r, size):
     r = jax.random.uniform(key_r, (size, 3), minval=-1.0, maxval=1.0) * jnp.array(
         [4e3, 4e3, 1e3])
     return orbit, jnp.concatenate([r, jnp.zeros((size, 3))], axis=1)
+
+
+def dispersion_arguments(parser, out):
+    """The options bench_fuel.py and bench_min_time.py share: --members, --segments, --points
+    (the uniform LGR mesh), --seed, --width (`batched_solves`) and --out (default `out`)."""
+    parser.add_argument("--members", type=int, default=256)
+    parser.add_argument("--segments", type=int, default=24)
+    parser.add_argument("--points", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--width", type=int, default=1,
+                        help="members vmapped together inside the batch's lax.map")
+    parser.add_argument("--out", default=out)

@@ -21,7 +21,8 @@ class FamilySolver:
     default_method  optional (problem, grid) -> method name
     refine        optional (problem, options, judge) -> `Solution`: the mesh refinement
                   `solve(problem)` runs for a concrete problem without a grid, with the
-                  method `refine_method` (`jaxlpm.solvers.refine`)
+                  method `refine_method` (`jaxlpm.solvers.refine`; judge a
+                  `jaxlpm.solution.Judge`)
     refine_method the method refinement uses: a name, or problem -> name
     """
 

@@ -72,16 +72,15 @@ def split_breaks(breaks, segment_error, k_new: int) -> np.ndarray:
     return np.concatenate(pieces + [b[-1:]])
 
 
-def next_mesh(rung, previous=None, judge=None) -> LGRMesh:
-    """The mesh of `rung` (K, n): uniform for the first, else the previous solution's breaks
-    split by its segment errors (`split_breaks`; with a `jaxlpm.solution.Judge`, its
-    `refinement_error`: raised where safety constraints are violated between the nodes)."""
+def next_mesh(rung, previous, judge) -> LGRMesh:
+    """The mesh of `rung` (K, n): uniform for the first (previous None), else the previous
+    solution's breaks split by the `jaxlpm.solution.Judge`'s `refinement_error` (its segment
+    errors, raised where safety constraints are violated between the nodes; `split_breaks`)."""
     k, n = rung
     if previous is None or not isinstance(previous.grid, LGRMesh):
         return lgr_mesh(k, n)
-    error = (previous.stats["segment_error"] if judge is None
-             else judge.refinement_error(previous))
-    return lgr_mesh(k, n, split_breaks(previous.grid.breaks, error, k))
+    return lgr_mesh(k, n, split_breaks(previous.grid.breaks, judge.refinement_error(previous),
+                                       k))
 
 
 def interpolated_guess(rows, controls, grid, mesh):
