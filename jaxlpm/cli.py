@@ -19,7 +19,7 @@ def _setup_jax():
     jax.config.update("jax_enable_x64", True)
     cache = os.environ.get("JAXLPM_CACHE_DIR", str(Path.home() / ".cache" / "jaxlpm" / "jax"))
     jax.config.update("jax_compilation_cache_dir", cache)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     return cache
 
 

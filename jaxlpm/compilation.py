@@ -21,20 +21,19 @@ every time. An executable loads in about a second (bench_compile.py: the KKT law
 Newton-KKT transfer 1.3 s).
 
 Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
-  "fast" (default)  XLA:CPU with LLVM's optimisation level 0. Measured on the 2-core CPU VM
-                    (experiments/benchmarks/bench_compile.py, BENCHMARKS.md "Cold start"):
-                    the Newton-KKT transfer of mei2010 (two-body, lgl(65)) compiles in 22.5 s
-                    instead of 30.0 s and then solves in 0.26 s instead of 0.080 s; the KKT
-                    law compiles in 4.8 s instead of 6.8 s and runs in 53 ms instead of 11 ms.
-                    Results agree to round-off.
-                    (XLA's classic loop emitters, xla_cpu_use_fusion_emitters=false, halve
-                    the Newton-KKT compile again, but with them, as with XLA's default
-                    optimisation, some executables fail when loaded from disk in jaxlib
-                    0.10.2: "Function and_and_fusion not found" (the test suite's shared
-                    cache, 2026-12-04). Only level-0 executables are written to disk, and
-                    since level-0 ones failed so too (tests/test_safety.py, 2026-12-05),
-                    the first call of an executable loaded from disk runs to the end and,
-                    on such an error, the program is compiled afresh.)
+  "fast" (default)  XLA:CPU with LLVM's optimisation level 0 and the classic loop emitters
+                    (xla_cpu_use_fusion_emitters=false). Measured on the 2-core CPU VM
+                    (experiments/benchmarks/bench_compile.py, BENCHMARKS.md "Cold start",
+                    2026-12-05): the KKT law of mei2010 compiles in 0.8 s instead of 1.8 s
+                    with level 0 alone and 2.5 s with XLA's defaults, the Newton-KKT transfer
+                    (two-body, lgl(65)) in 7.3 s instead of 9.2 s and 14.4 s; they then run
+                    2-5x slower (KKT law 23 ms against 11 ms; Newton-KKT 0.11 s against
+                    0.024 s). Results agree to round-off.
+                    (Some executables compiled so, as with XLA's default optimisation, fail
+                    when loaded from disk in jaxlib 0.10.2: "Function and_and_fusion not
+                    found" (the test suite's shared cache, 2026-12-04 and -05). The first call
+                    of an executable loaded from disk therefore runs to the end and, on such
+                    an error, the program is compiled afresh, overwriting the entry.)
   "optimized"       XLA's defaults: for a script that calls `solve` thousands of times one by
                     one (batches under jax.vmap inside the user's jax.jit get the user's
                     options in any case).
@@ -70,10 +69,10 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import jax
-import jax.numpy as jnp
+import numpy as np
 
 PROFILES = {
-    "fast": {"xla_backend_optimization_level": 0},
+    "fast": {"xla_backend_optimization_level": 0, "xla_cpu_use_fusion_emitters": False},
     "optimized": {},
 }
 _PACKAGES = ("jax", "jaxlib", "numpy", "jaxopt", "diffrax", "equinox", "lineax", "optimistix")
@@ -248,9 +247,10 @@ class Compiled:
         executable = lowered.compile(compiler_options())
         events.append(dict(event, compile_s=time.perf_counter() - t0))
         path = _entry(key) if self.on_disk else None
-        # only level-0 executables go to disk: some compiled with XLA's default LLVM
-        # optimisation fail when loaded in jaxlib 0.10.2 ("Function or_and_fusion not found",
-        # the test suite's shared cache, 2026-12-04); "optimized" relies on JAX's own cache
+        # only the fast profile's executables go to disk: more of those compiled with XLA's
+        # default LLVM optimisation failed when loaded in jaxlib 0.10.2 ("Function
+        # or_and_fusion not found", the test suite's shared cache, 2026-12-04); "optimized"
+        # relies on JAX's own cache
         if path is not None and profile() == "fast":
             _store(path, executable)
         return executable
@@ -278,7 +278,8 @@ class _Prefetch:
                 if self.log is not None:
                     self.log(f"compiling {len(self.pending)}: {fn.name}")
         info = known.out_info if known is not None else self.pending[key][2]
-        return jax.tree_util.tree_map(lambda a: jnp.zeros(a.shape, a.dtype), info)
+        # NumPy zeros: jnp.zeros would compile a broadcast per output shape
+        return jax.tree_util.tree_map(lambda a: np.zeros(a.shape, a.dtype), info)
 
     def finish(self):
         done = 0
@@ -339,7 +340,7 @@ def _prepare_runtime():
     LAPACK call. Lowering one QR (no compile, ~0.05 s) binds them by the public path."""
     import jax.numpy as jnp
 
-    jax.jit(jnp.linalg.qr).lower(jnp.eye(2))
+    jax.jit(jnp.linalg.qr).lower(np.eye(2))
 
 
 def _load(path):

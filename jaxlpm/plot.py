@@ -94,19 +94,29 @@ def _not_success_label(codes) -> str:
 _EVALUATE = None
 
 
+def _sample_member(solution, tau):
+    """(t, states(t), controls(t), and the node values) of one solution at fractions tau of
+    its duration."""
+    t = tau * solution.duration
+    return (t, solution.states(t), solution.controls(t), solution.state_times,
+            solution.node_states, solution.times, solution.node_controls)
+
+
+def _sample_members(solutions, tau):
+    """`_sample_member` over a leading member axis."""
+    import jax
+
+    return jax.vmap(_sample_member, in_axes=(0, None))(solutions, tau)
+
+
 def _evaluator():
-    """jit(vmap(member -> (t, states(t), controls(t), and the node values))) at fractions tau
-    of each duration: compiled once per solution structure and number of samples."""
+    """`_sample_members`, compiled once per solution structure and number of samples (and
+    kept on disk: `jaxlpm.compilation`)."""
     global _EVALUATE
     if _EVALUATE is None:
-        import jax
+        from .compilation import compiled
 
-        def member(solution, tau):
-            t = tau * solution.duration
-            return (t, solution.states(t), solution.controls(t), solution.state_times,
-                    solution.node_states, solution.times, solution.node_controls)
-
-        _EVALUATE = jax.jit(jax.vmap(member, in_axes=(0, None)))
+        _EVALUATE = compiled(_sample_members)
     return _EVALUATE
 
 

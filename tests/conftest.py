@@ -1,16 +1,17 @@
 """Test session set-up: float64 everywhere, a persistent compilation cache shared with the
 subprocess tests (JAX's, and jaxlpm's executables under it: `jaxlpm.compilation`), and XLA's
-CPU backend at LLVM optimisation level 0 for the tests' own jitted functions too (jaxlpm's
-"fast" profile): compile time dominates this suite, and level 0 cut tests/test_lq.py from 152
-s to 120 s cold on the 2-core VM. A level set in XLA_FLAGS is kept. The pytest-xdist workers
+CPU backend at LLVM optimisation level 0 with the classic loop emitters for the tests' own
+jitted functions too (jaxlpm's "fast" profile): compile time dominates this suite, and level 0
+cut tests/test_lq.py from 152 s to 120 s cold on the 2-core VM. Either option set in
+XLA_FLAGS is kept. The pytest-xdist workers
 (pyproject's addopts) share the caches; an entry being written by another worker is a miss."""
 
 import os
 from pathlib import Path
 
-if "xla_backend_optimization_level" not in os.environ.get("XLA_FLAGS", ""):
-    os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
-                               + " --xla_backend_optimization_level=0").strip()
+for _flag in ("xla_backend_optimization_level=0", "xla_cpu_use_fusion_emitters=false"):
+    if _flag.split("=")[0] not in os.environ.get("XLA_FLAGS", ""):
+        os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --{_flag}".strip()
 
 import jax  # noqa: E402  (after XLA_FLAGS: the backend reads it when it starts)
 

@@ -82,9 +82,11 @@ def _lvlh_nodes(X_th, p_th, sf, cf, e, k2):
 
 
 def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, stat_res, rcond,
-            sf, cf):
+            sf, cf, estimate=True):
     """Assemble the Solution: SI outputs, costs, status; zero everything for invalid input.
-    sf, cf: sin and cos of the node true anomalies, computed once (`_materialized`)."""
+    sf, cf: sin and cos of the node true anomalies, computed once (`_materialized`).
+    estimate=False leaves the error estimate out (a warm start's law, `jaxlpm.solvers.
+    transfer`: a smaller program)."""
     e, k2, rho, half = s["e"], s["k2"], s["rho"], s["half"]
     u = k2**2 * U_nodes                                          # m/s^2
     cost_f = 0.5 * half * jnp.sum(grid.weights * jnp.sum(u**2, axis=1) / rho**2)
@@ -95,8 +97,8 @@ def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, s
         stats=dict(node_f=s["f"], node_states_th=X_nodes, cost_true_anomaly=cost_f,
                    costates_th=costates, multipliers=multipliers, constraint_residual=con_res,
                    stationarity_residual=stat_res, rcond=rcond,
-                   **collocation_accuracy(s["prob"], grid, X_nodes / length,
-                                          U_nodes / length)))
+                   **(collocation_accuracy(s["prob"], grid, X_nodes / length,
+                                           U_nodes / length) if estimate else {})))
     finite = jnp.all(jnp.array([jnp.all(jnp.isfinite(v))
                                 for v in jax.tree_util.tree_leaves(outputs)]))
     valid = s["valid"]
@@ -355,8 +357,9 @@ def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active):
     return Q, V, U, jnp.concatenate([gQ, gV], axis=1), con_res, stat_res, rcond
 
 
-def kkt_law(problem, grid) -> Solution:
-    """Mei 2010 eq. (12)-(16) in 3D (the paper's "SEQ" law); see the module docstring."""
+def kkt_law(problem, grid, estimate: bool = True) -> Solution:
+    """Mei 2010 eq. (12)-(16) in 3D (the paper's "SEQ" law); see the module docstring.
+    estimate=False: without the error estimate in `stats` (static)."""
     s = _setup(problem, grid)
     e, rho, half, f = s["e"], s["rho"], s["half"], s["f"]
     Dh = grid.D / half
@@ -386,4 +389,4 @@ def kkt_law(problem, grid) -> Solution:
     costates = -gamma / (half * grid.weights)[:, None]
     sf, cf = _materialized(jnp.sin(f), jnp.cos(f))
     return _finish("kkt", s, grid, X, U, costates, gamma, jnp.maximum(*con),
-                   jnp.maximum(*stat), jnp.minimum(*rc), sf, cf)
+                   jnp.maximum(*stat), jnp.minimum(*rc), sf, cf, estimate)

@@ -35,7 +35,7 @@ def _warm_start(problem, ocp, grid):
     LGR a step that leaves the linear constraints unmet)."""
     linear = problem.replace(model="linear", constraints=())
     if grid.scheme == "LGL":
-        law = kkt_law(linear, grid)
+        law = kkt_law(linear, grid, estimate=False)
         X_lvlh, U_si = law.node_states, law.node_controls
         singular = law.status == Status.SINGULAR
     else:
