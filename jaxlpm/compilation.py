@@ -17,18 +17,18 @@ arguments it runs an ahead-of-time compiled executable, found in this order:
    (atomically: parallel test workers share the folder; an unreadable entry is a miss).
 JAX's own persistent cache (`jax_compilation_cache_dir`) saves only XLA's compile step:
 tracing and lowering, 26 of a warm 38 s `jaxlpm reproduce mei2010` (issue 21), ran again
-every time. An executable loads in about a second (bench_compile.py: the KKT law 0.7 s, the
-Newton-KKT transfer 1.3 s).
+every time. An executable loads in well under a second (bench_compile.py, 2026-12-05: the
+KKT law 0.13 s, the Newton-KKT transfer 0.49 s).
 
 Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
   "fast" (default)  XLA:CPU with LLVM's optimisation level 0 and the classic loop emitters
                     (xla_cpu_use_fusion_emitters=false). Measured on the 2-core CPU VM
                     (experiments/benchmarks/bench_compile.py, BENCHMARKS.md "Cold start",
-                    2026-12-05): the KKT law of mei2010 compiles in 0.8 s instead of 1.8 s
-                    with level 0 alone and 2.5 s with XLA's defaults, the Newton-KKT transfer
-                    (two-body, lgl(65)) in 7.3 s instead of 9.2 s and 14.4 s; they then run
-                    2-5x slower (KKT law 23 ms against 11 ms; Newton-KKT 0.11 s against
-                    0.024 s). Results agree to round-off.
+                    2026-12-05): mei2010's KKT law compiles in 0.63 s instead of 1.84 s
+                    with level 0 alone and 2.85 s with XLA's defaults; its Newton-KKT
+                    transfer (two-body, lgl(65)) compiles in 4.9 s instead of 11.8 s with
+                    XLA's defaults. They then run 1.5-4x slower (24 ms against 6 ms; 0.096 s
+                    against 0.027 s). Results agree to round-off.
                     (Some executables compiled so, as with XLA's default optimisation, fail
                     when loaded from disk in jaxlib 0.10.2: "Function and_and_fusion not
                     found" (the test suite's shared cache, 2026-12-04 and -05). The first call
