@@ -6,10 +6,11 @@ instead of unrolling the solver's iterations. jaxopt is unmaintained; if it brea
 module changes (to `jax.lax.custom_root`).
 """
 
+import functools
+
 import jax
 import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
-from jaxopt import implicit_diff
 
 from .linalg import lu_solve
 
@@ -44,4 +45,20 @@ def root(optimality_fun, has_aux: bool = False, zero_nonfinite: bool = False):
     members are masked with jnp.where keeps finite gradients.
     """
     solve = _dense_solve_or_zero if zero_nonfinite else _dense_solve
-    return implicit_diff.custom_root(optimality_fun, has_aux=has_aux, solve=solve)
+
+    def decorate(solver):
+        # jaxopt (and the scipy.optimize it imports, ~0.3 s) is imported at the first call,
+        # not when a module decorates its solver: `import jaxlpm` stays quick (issue 21)
+        @functools.wraps(solver)
+        def rooted(*args, **kwargs):
+            if rooted.implicit is None:
+                from jaxopt import implicit_diff
+
+                rooted.implicit = implicit_diff.custom_root(
+                    optimality_fun, has_aux=has_aux, solve=solve)(solver)
+            return rooted.implicit(*args, **kwargs)
+
+        rooted.implicit = None
+        return rooted
+
+    return decorate

@@ -183,11 +183,16 @@ def linear_flights(plan):
 def test_the_nominal_flight_is_verify_fly(linear_flights):
     """The default model is the plan's own, as `jaxlpm.verify.fly`'s, and the error-free row
     is its flight: the same propagator and control, other save times (dense output), so the
-    same terminal error to the integrator's round-off (1e-9 relative)."""
+    same terminal error to the integrator's tolerance. The two are different programs
+    (compiled with different XLA options: the Monte Carlo's batch, `verify.fly`'s fast
+    profile), so their round-off differs and the adaptive steps with it: the integrator's
+    rtol = atol = 1e-12 on states scaled to the transfer's ~1.4e4 m leaves ~1e-8 m (measured
+    8e-9 m on a 5.6 m miss); asserted at 1e-7 m and 1e-10 m/s."""
     plan, _, r = linear_flights
     assert r["model"] == "linear"
     flight = lpm.verify.fly(plan)
-    np.testing.assert_allclose(r["nominal"], flight.terminal_error, rtol=1e-9)
+    np.testing.assert_allclose(r["nominal"][0], flight.terminal_error[0], rtol=0, atol=1e-7)
+    np.testing.assert_allclose(r["nominal"][1], flight.terminal_error[1], rtol=0, atol=1e-10)
 
 
 def test_the_j2_model_takes_the_problem_j2(plan):
