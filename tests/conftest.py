@@ -48,7 +48,7 @@ def _release_compiled_programs():
 SLOW_FILES_FIRST = ("test_safety.py", "test_verify.py", "test_newton.py", "test_api.py",
                     "test_tan2011.py", "test_properties.py", "test_accuracy.py",
                     "test_fuel_eccentric.py", "test_min_time_eccentric.py",
-                    "test_fuel_constrained.py")
+                    "test_fuel_constrained.py", "test_refine_batch.py")
 
 
 def pytest_collection_modifyitems(items):

@@ -1,78 +1,229 @@
-"""Batched mesh refinement of energy-optimal transfers (`jaxlpm.solvers.refine`): every member
-is solved on the ladder's first rung; only the members that come out INACCURATE go on to the
-next rung, each on its own breaks (split where its own error is, and where its safety
-constraints are violated between the nodes: `refinement_error`) and warm-started from its own
-previous solution. A rung's mesh shape is fixed, its breaks an array leaf, so each rung is one
-compiled function whatever the members and breaks (`lax.map` over groups of `width` members).
+"""Batched mesh refinement (`jaxlpm.solvers.refine`) of energy-optimal, fuel-optimal and
+minimum-time transfers: every member is solved on the ladder's first rung; only the members
+that come out INACCURATE go on to the next rung, each on its own breaks, and, where the family
+warm-starts, from its own previous solution. A rung's mesh shape is fixed, its breaks an array
+leaf, so each rung is one compiled function whatever the members and breaks (`lax.map` over
+groups of `width` members).
+
+Where each family puts the next rung's breaks, as its single solve does (`solve(problem)`
+without a grid):
+  energy-optimal   split where the member's own error is, and where its safety constraints
+                   are violated between the nodes (`refinement_error`); warm-started from the
+                   previous solution's polynomial (`EnergyPlan`)
+  fuel-optimal     a break at each of the member's switching times (`aligned_breaks`: the
+                   switches move with the mesh, so the default ladder repeats each segment
+                   count); each rung runs the energy-to-fuel homotopy afresh (`FuelPlan`)
+  minimum time     method "condensed" (every model): uniform meshes; method
+                   "augmented-lagrangian" (HCW): split by the error, each rung from its own
+                   minimum-time guess (`MinTimePlan`)
 """
 
 import functools
+from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..collocation.segments import LGRMesh, lgr_mesh
 from ..collocation import lgr
+from ..collocation.segments import (LGRMesh, SegmentedMesh, aligned_breaks, lgr_mesh,
+                                    uniform_breaks)
 from ..nlp.augmented_lagrangian import ALOptions
+from ..nlp.homotopy import HomotopyOptions
 from ..nlp.newton import NewtonOptions
+from ..problems import EnergyOptimalTransfer, MinimumTimeTransfer
+from ..problems.fuel_optimal import FuelOptimalTransfer
 from ..problems.energy_optimal import scaled_rows
 from ..solution import DEFAULT_TOLERANCE, judge
 from ..solution.accuracy import refinement_error
+from ..solvers import fuel_optimal, min_time, min_time_condensed
 from ..solvers.energy_optimal import rung_options
-from ..solvers.refine import DEFAULT_LADDER, interpolated_guess, split_breaks
+from ..solvers.fuel_constrained import FuelALOptions
+from ..solvers.min_time_condensed import CondensedOptions
+from ..solvers.refine import DEFAULT_LADDER, MeshLadder, interpolated_guess, split_breaks
 from ..solvers.transfer import newton_transfer
 from ..status import Status
 from .sweep import map_in_groups
 
+_RECORD_KEYS = ("iterations", "newton_iterations", "fuel", "constraint_violation",
+                "violation_position", "violation_velocity", "path_violation")
+
 
 def accuracy_record(solution):
-    """A member's record: status, cost (m^2/s^3), the error estimate (m, m/s, relative),
-    Newton iterations; with safety constraints their dense check too (constraint_violation,
-    violation_position, violation_velocity, path_violation: `safety_stats`)."""
+    """A member's record: status, cost (the family's SI unit: m^2/s^3 energy, m/s delta-v,
+    s duration), duration (s), the error estimate (m, m/s, relative), and those of
+    iterations (Newton-KKT), newton_iterations (the fuel homotopy's), fuel (kg) and the
+    dense check of safety constraints (constraint_violation, violation_position,
+    violation_velocity, path_violation: `safety_stats`) that its stats carry."""
     st = solution.stats
-    safety = {key: st[key] for key in ("constraint_violation", "violation_position",
-                                       "violation_velocity", "path_violation") if key in st}
-    return dict(status=solution.status, cost=solution.cost,
+    return dict(status=solution.status, cost=solution.cost, duration=solution.duration,
                 error_position=st["error_position"], error_velocity=st["error_velocity"],
-                relative_error=st["relative_error"], iterations=st["iterations"], **safety)
+                relative_error=st["relative_error"],
+                **{key: st[key] for key in _RECORD_KEYS if key in st})
 
 
 def gradient_record(gradient) -> dict:
     """{"dcost_d<leaf>": d cost / d leaf} for every leaf of a problem-shaped gradient
     (`jax.grad` of the cost): "dcost_dx0" (6,), "dcost_dduration", "dcost_dorbit.e", ... in
-    the cost's SI unit (m^2/s^3) per the leaf's SI unit."""
+    the cost's SI unit per the leaf's SI unit."""
     leaves, _ = jax.tree_util.tree_flatten_with_path(gradient)
     return {"dcost_d" + jax.tree_util.keystr(path).lstrip("."): value for path, value in leaves}
 
 
+@dataclass(frozen=True)
+class EnergyPlan:
+    """Energy-optimal transfers: Newton-KKT (or the augmented Lagrangian with safety
+    constraints) on `LGRMesh` rungs, split by `refinement_error`, warm-started."""
+
+    ladder: MeshLadder = DEFAULT_LADDER
+    options: NewtonOptions | ALOptions = NewtonOptions()
+    warm_start = True
+
+    def rung_options(self, shape):
+        return rung_options(self.options, shape[0])
+
+    def first_breaks(self, k):
+        return np.asarray(lgr_mesh(k, 2).breaks)
+
+    def next_breaks(self, carry, k, previous):
+        return split_breaks(carry["breaks"], carry["error"], k)
+
+    def solve(self, problem, breaks, prev, shape, previous, options):
+        mesh = LGRMesh(breaks, lgr(shape[1]))
+        if previous is None:
+            return newton_transfer(problem, mesh, options)
+        X, U = interpolated_guess(prev["X"], prev["U"],
+                                  LGRMesh(prev["breaks"], lgr(previous[1])), mesh)
+        return newton_transfer(problem, mesh, options,
+                               z0=jnp.concatenate([X.reshape(-1), U.reshape(-1)]))
+
+    def carry(self, solution, breaks, tolerance):
+        X, U = scaled_rows(solution)
+        return dict(breaks=breaks, X=X, U=U, error=refinement_error(solution.stats, tolerance))
+
+
+def _fuel_ladder(segments, points, passes):
+    """The fuel family's single refinement as a ladder: segments[0] uniform, then `passes`
+    aligned meshes of each count."""
+    return MeshLadder(((segments[0], points),)
+                      + tuple((k, points) for k in segments for _ in range(passes)))
+
+
+@dataclass(frozen=True)
+class FuelPlan:
+    """Fuel-optimal transfers: the homotopy (or, with safety constraints, the augmented
+    Lagrangian) on `SegmentedMesh` rungs (breaks as fractions of the transfer), the first
+    uniform, each next one with a break at every switching time of the member's previous
+    solution (`aligned_breaks`)."""
+
+    ladder: MeshLadder = _fuel_ladder(fuel_optimal.REFINE_SEGMENTS,
+                                      fuel_optimal.DEFAULT_POINTS, fuel_optimal.ALIGN_PASSES)
+    options: HomotopyOptions | FuelALOptions = HomotopyOptions()
+    warm_start = False
+
+    def rung_options(self, shape):
+        return self.options
+
+    def first_breaks(self, k):
+        return np.asarray(uniform_breaks(0.0, 1.0, k))
+
+    def next_breaks(self, carry, k, previous):
+        runs = fuel_optimal.burn_runs(carry["breaks"], lgr(previous[1]).weights,
+                                      carry["throttle"], carry["threshold"])
+        return aligned_breaks(0.0, 1.0, k, fuel_optimal.interior_switches(runs))
+
+    def solve(self, problem, breaks, prev, shape, previous, options):
+        return fuel_optimal.run(problem, SegmentedMesh(breaks, lgr(shape[1])),
+                                fuel_optimal.default_method(problem), options)
+
+    def carry(self, solution, breaks, tolerance):
+        st = solution.stats
+        return dict(breaks=breaks, throttle=st["node_throttle"],
+                    threshold=jnp.asarray(st.get("burn_threshold", fuel_optimal.BURNING)))
+
+
+@dataclass(frozen=True)
+class MinTimePlan:
+    """Minimum-time transfers: method "condensed" on uniform `SegmentedMesh` rungs, or on HCW
+    method "augmented-lagrangian" on `LGRMesh` rungs split by the error; no warm start (each
+    rung's own minimum-time guess carries the duration and the primer)."""
+
+    ladder: MeshLadder
+    options: CondensedOptions | ALOptions
+    warm_start = False
+
+    @property
+    def condensed(self):
+        return isinstance(self.options, CondensedOptions)
+
+    def rung_options(self, shape):
+        return self.options
+
+    def first_breaks(self, k):
+        return np.asarray(uniform_breaks(0.0, 1.0, k) if self.condensed
+                          else lgr_mesh(k, 2).breaks)
+
+    def next_breaks(self, carry, k, previous):
+        if self.condensed:
+            return self.first_breaks(k)
+        return split_breaks(carry["breaks"], carry["error"], k)
+
+    def solve(self, problem, breaks, prev, shape, previous, options):
+        if self.condensed:
+            return min_time.run(problem, SegmentedMesh(breaks, lgr(shape[1])), "condensed",
+                                options)
+        return min_time.run(problem, LGRMesh(breaks, lgr(shape[1])), "augmented-lagrangian",
+                            options)
+
+    def carry(self, solution, breaks, tolerance):
+        return dict(breaks=breaks, error=refinement_error(solution.stats, tolerance))
+
+
+def refinement_plan(problems, ladder=None, options=None):
+    """The plan (`EnergyPlan`, `FuelPlan`, `MinTimePlan`) of a batch of `problems`, with the
+    family's default ladder and options where they are None."""
+    if isinstance(problems, EnergyOptimalTransfer):
+        if options is None:
+            options = ALOptions() if problems.constraints else NewtonOptions()
+        return EnergyPlan(DEFAULT_LADDER if ladder is None else ladder, options)
+    if isinstance(problems, FuelOptimalTransfer):
+        if options is None:
+            options = FuelALOptions() if problems.constraints else HomotopyOptions()
+        if ladder is None:
+            ladder = (_fuel_ladder(fuel_optimal.CONSTRAINED_SEGMENTS, fuel_optimal.DEFAULT_POINTS,
+                                   1) if problems.constraints else FuelPlan.ladder)
+        return FuelPlan(ladder, options)
+    if isinstance(problems, MinimumTimeTransfer):
+        hcw = problems.model == "linear" and bool(np.all(np.asarray(problems.orbit.e) == 0.0))
+        if options is None:
+            options = ALOptions() if hcw else CondensedOptions()
+        if ladder is None:
+            ladder = (min_time.LADDER if isinstance(options, ALOptions) else MeshLadder(
+                tuple((k, min_time_condensed.DEFAULT_POINTS)
+                      for k in min_time_condensed.REFINE_SEGMENTS)))
+        return MinTimePlan(ladder, options)
+    raise ValueError(f"refine_batch refines EnergyOptimalTransfer, FuelOptimalTransfer and "
+                     f"MinimumTimeTransfer batches, got {type(problems).__name__}")
+
+
 @functools.lru_cache(maxsize=None)
-def _rung_function(shape, previous, options, tolerance, width, record, gradients):
+def _rung_function(plan, shape, previous, tolerance, width, record, gradients):
     """jit(map over members) of one rung: (problems, breaks, carried previous solution) ->
     (records, carry for the next rung)."""
-    k, n = shape
+    options = plan.rung_options(shape)
 
     def solve(problem, breaks, prev):
-        mesh = LGRMesh(breaks, lgr(n))
-        if previous is None:
-            sol = newton_transfer(problem, mesh, options)
-        else:
-            X, U = interpolated_guess(prev["X"], prev["U"],
-                                      LGRMesh(prev["breaks"], lgr(previous[1])), mesh)
-            sol = newton_transfer(problem, mesh, options,
-                                  z0=jnp.concatenate([X.reshape(-1), U.reshape(-1)]))
-        return sol.cost, judge(sol, tolerance)
+        sol = judge(plan.solve(problem, breaks, prev, shape, previous, options), tolerance)
+        return sol.cost, sol
 
     def member(args):
         problem, breaks, prev = args
-        if gradients:     # the implicit gradient on this rung's mesh: one adjoint KKT solve
+        if gradients:     # the implicit gradient on this rung's mesh: one adjoint solve
             (_, sol), grad = jax.value_and_grad(solve, has_aux=True)(problem, breaks, prev)
             extra = gradient_record(grad)
         else:
             sol, extra = solve(problem, breaks, prev)[1], {}
-        X, U = scaled_rows(sol)
-        return record(sol) | extra, dict(breaks=breaks, X=X, U=U,
-                                         error=refinement_error(sol.stats, tolerance))
+        return record(sol) | extra, plan.carry(sol, breaks, tolerance)
 
     return jax.jit(lambda ps, bs, prev: map_in_groups(member, (ps, bs, prev), width))
 
@@ -81,35 +232,55 @@ def _take(tree, idx):
     return jax.tree_util.tree_map(lambda x: x[idx], tree)
 
 
-def refine_batch(problems, *, ladder=DEFAULT_LADDER, tolerance=DEFAULT_TOLERANCE,
-                 options: NewtonOptions | ALOptions | None = None, record=accuracy_record,
-                 gradients: bool = False, width: int = 1, log=None) -> dict:
-    """Refine a batch of `EnergyOptimalTransfer`s (leading axis: members) rung by rung (module
-    docstring). record(solution) -> dict of arrays: what is kept of each member's final
-    solution (the default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`).
-    gradients: also the implicit gradient of the cost with respect to every leaf of the
-    problem (`gradient_record`: dcost_dx0, dcost_dxf, dcost_dduration, dcost_dorbit.e, ...),
-    taken on each member's final mesh (its breaks held fixed). options: the solver's (None:
-    `NewtonOptions()`, or `ALOptions()` for transfers with safety constraints). Returns the
-    records as NumPy arrays (members first) plus "rung" (the rung each member ended on) and
-    "segments" (its mesh's segment count)."""
-    if options is None:
-        options = ALOptions() if problems.constraints else NewtonOptions()
-    n_members = jax.tree_util.tree_leaves(problems)[0].shape[0]
+def _member_rows(problems, n):
+    """The batch with a leading member axis on every leaf: a leaf of one member's shape (a
+    default shared by every member, such as j2 or duration_bounds) broadcast to n rows."""
+    return jax.tree_util.tree_map(
+        lambda x, one: jnp.broadcast_to(x, (n,) + np.shape(one))
+        if np.ndim(x) == np.ndim(one) else x, problems, problems.harmless())
+
+
+def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAULT_TOLERANCE,
+                 options=None, record=accuracy_record, gradients: bool = False, width: int = 1,
+                 log=None) -> dict:
+    """Refine a batch of `EnergyOptimalTransfer`s, `FuelOptimalTransfer`s or
+    `MinimumTimeTransfer`s (leading axis: members) rung by rung (module docstring).
+
+    ladder: the rungs' mesh shapes (None: the family's, as its single solve climbs them:
+    `DEFAULT_LADDER`; the fuel family's 24 x 8 uniform, then 3 aligned passes each of 24, 48
+    and 96 segments of 8 points; minimum time's `min_time.LADDER` on HCW, else 16, 32, 64 and
+    128 x 8). options: the solver's (None: the family's default). record(solution) -> dict of
+    arrays: what is kept of each member's final solution (the default: `accuracy_record`; it
+    may fly the solution, `jaxlpm.verify.fly`). gradients: also the implicit gradient of the
+    cost with respect to every leaf of the problem (`gradient_record`: dcost_dx0,
+    dcost_dduration, dcost_dorbit.e, ...), taken on each member's final mesh (its breaks held
+    fixed); energy- and fuel-optimal only (a minimum-time solve is not differentiated).
+    Returns the records as NumPy arrays (members first) plus "rung" (the rung each member
+    ended on) and "segments" (its mesh's segment count)."""
+    plan = refinement_plan(problems, ladder, options)
+    if gradients and isinstance(plan, MinTimePlan):
+        raise ValueError("gradients=True: a minimum-time solve is not differentiated (its "
+                         "costates give dt_f/dx0 and dt_f/dxf)")
+    if np.ndim(problems.x0) != 2 or np.shape(problems.x0)[0] < 1:
+        raise ValueError(f"problems must carry a leading member axis (x0 of shape (n, 6)), "
+                         f"got x0 of shape {np.shape(problems.x0)}")
+    n_members = np.shape(problems.x0)[0]
+    problems = _member_rows(problems, n_members)
     todo = np.arange(n_members)
     out, carry, previous = None, None, None
-    for index, shape in enumerate(ladder.rungs):
-        k, _ = shape
-        if previous is None:
-            breaks = np.tile(np.asarray(lgr_mesh(k, 2).breaks), (todo.size, 1))
+    for index, shape in enumerate(plan.ladder.rungs):
+        k = shape[0]
+        if carry is None:
+            breaks = np.tile(plan.first_breaks(k), (todo.size, 1))
         else:
-            breaks = np.stack([split_breaks(b, e, k) for b, e in
-                               zip(np.asarray(carry["breaks"]),
-                                   np.asarray(carry["error"]))])
-        fn = _rung_function(shape, previous, rung_options(options, k), tolerance, width, record,
-                            gradients)
+            host = jax.tree_util.tree_map(np.asarray, carry)
+            breaks = np.stack([plan.next_breaks(_take(host, i), k, previous)
+                               for i in range(todo.size)])
+        fn = _rung_function(plan, shape, previous if plan.warm_start else None, tolerance,
+                            width, record, gradients)
         recs, new_carry = fn(_take(problems, todo), jnp.asarray(breaks),
-                             carry if carry is not None else jnp.zeros(todo.size))
+                             carry if carry is not None and plan.warm_start
+                             else jnp.zeros(todo.size))
         recs = {key: np.asarray(v) for key, v in recs.items()}
         if out is None:
             out = {key: np.zeros((n_members,) + v.shape[1:], v.dtype) for key, v in recs.items()}

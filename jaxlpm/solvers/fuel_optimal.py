@@ -356,21 +356,28 @@ def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points
 
 
 def _burn_runs(sol: Solution):
-    """[(start, end)] of the burns as fractions of [s0, s_f] (unbatched solution): the runs
-    of collocation points that fire (throttle > 0), each point standing for its quadrature
-    cell (the cumulative LGR weights of its segment). A run's end point with a partial
-    throttle w fires for the fraction w of its cell, on the run's side; a run of one point is
-    centred on it; a run that reaches an end of the transfer burns from (to) it. This
+    """[(start, end)] of the burns as fractions of [s0, s_f] (unbatched solution):
+    `burn_runs` of its mesh and throttles."""
+    return burn_runs(0.5 * (np.asarray(sol.grid.breaks) + 1.0), sol.grid.segment.weights,
+                     sol.stats["node_throttle"], sol.stats.get("burn_threshold", BURNING))
+
+
+def burn_runs(breaks, weights, throttle, threshold=BURNING):
+    """[(start, end)] of the burns as fractions of [s0, s_f], from the mesh's breaks (as
+    fractions), its segment's LGR weights and the throttles at its points (host, NumPy): the
+    runs of collocation points that fire (throttle > threshold), each point standing for its
+    quadrature cell (the cumulative LGR weights of its segment). A run's end point with a
+    partial throttle w fires for the fraction w of its cell, on the run's side; a run of one
+    point is centred on it; a run that reaches an end of the transfer burns from (to) it. This
     impulse-equivalent estimate is the discrete solution's own: a bang-bang optimum on a mesh
     puts one partial point at each switch, where |p| sits within eps of 1, so the primer's
     crossing lies at that point and not at the switch."""
-    grid = sol.grid
-    b = 0.5 * (np.asarray(grid.breaks) + 1.0)
-    cells = np.concatenate([[0.0], np.cumsum(np.asarray(grid.segment.weights))]) / 2.0
+    b = np.asarray(breaks, np.float64)
+    cells = np.concatenate([[0.0], np.cumsum(np.asarray(weights))]) / 2.0
     lo = (b[:-1, None] + np.diff(b)[:, None] * cells[None, :-1]).reshape(-1)
     hi = (b[:-1, None] + np.diff(b)[:, None] * cells[None, 1:]).reshape(-1)
-    w = np.asarray(sol.stats["node_throttle"]).reshape(-1)
-    on = w > float(sol.stats.get("burn_threshold", BURNING))
+    w = np.asarray(throttle).reshape(-1)
+    on = w > float(threshold)
     edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
     runs = []
     for i, j in zip(edges[::2], edges[1::2] - 1):
@@ -384,6 +391,12 @@ def _burn_runs(sol: Solution):
     return runs
 
 
+def interior_switches(runs):
+    """The burn starts and ends strictly inside (0, 1) of `burn_runs`' runs, ascending."""
+    return np.sort(np.asarray([x for arc in runs for x in arc if 0.0 < x < 1.0],
+                              dtype=np.float64))
+
+
 @compiled
 def _times(sol, fractions):
     """Times (s) at fractions of [s0, s_f]: each segment's interpolated state-row times."""
@@ -395,9 +408,7 @@ def _times(sol, fractions):
 def switching_fractions(sol: Solution):
     """The switches (burn starts and ends inside the transfer, `burn_arcs`) as fractions of
     [s0, s_f], the coordinates of a mesh's breaks: ascending NumPy array (unbatched)."""
-    runs = _burn_runs(sol)
-    sw = [x for arc in runs for x in arc if 0.0 < x < 1.0]
-    return np.sort(np.asarray(sw, dtype=np.float64))
+    return interior_switches(_burn_runs(sol))
 
 
 def switching_times(sol: Solution):
