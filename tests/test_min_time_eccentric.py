@@ -109,3 +109,22 @@ def test_infeasible_and_bad_input():
         min_time_shooting(problem(model="two-body"), PANELS)
     with pytest.raises(ValueError, match="model must be one of"):
         lpm.solve(problem(model="hcw"), MESH)
+
+
+def test_first_reachable_duration_where_newton_wanders():
+    """A transfer of experiments/benchmarks/bench_min_time.py's dispersion (seed 0, member 87:
+    0.1 N on 50 kg, 4 km away, e = 0.023) on which Newton on log F*(T) did not converge
+    (MAX_ITERATIONS, 2026-12-05): log F* is not monotone in T there. The fallback brackets
+    the first reachable duration: SUCCESS, flown within the default tolerance, and with
+    t_max 3 % below that duration the target is out of reach (INFEASIBLE)."""
+    orbit = lpm.KeplerOrbit(a=7164130.024923476, e=0.02290997292797314)
+    xf = jnp.array([-3992.245193885026, 886.8831287767005, -425.38377667555284, 0.0, 0.0, 0.0])
+    mesh = lpm.segmented_lgr(lpm.uniform_breaks(0.0, 1.0, 24), 8)
+    request = lpm.MinimumTimeTransfer(orbit, jnp.zeros(6), xf, 0.1, 50.0,
+                                      duration_bounds=jnp.array([0.0, 5.0 * orbit.period]))
+    sol = lpm.solve(request, mesh, throw=False)
+    assert int(sol.status) == Status.SUCCESS
+    miss = np.asarray(lpm.verify.fly(sol).terminal_error)
+    assert miss[0] <= DEFAULT_TOLERANCE.position and miss[1] <= DEFAULT_TOLERANCE.velocity
+    shorter = request.replace(duration_bounds=jnp.array([0.0, 0.97 * float(sol.duration)]))
+    assert int(lpm.solve(shorter, mesh, throw=False).status) == Status.INFEASIBLE

@@ -84,9 +84,18 @@ def _log_margin(problem, mesh, T, ref, p):
     return jnp.log(support(nlp.E, _ones(nlp), p) / (p @ nlp.d))
 
 
+SCAN_RATIO = 1.25     # the fallback's scan for the first reachable duration: T x 1.25 a step
+SCAN_STEPS = 64       # its steps at most, each way (1.25^64 ~ 1.6e6)
+
+
 def _duration(problem, mesh, ref, T0, hi, options):
     """(T*, p*, d log F*/d log T at T*, converged): Newton on log F*(T) = 0 in log T, clipped
-    to (0, hi] (module docstring)."""
+    to (0, hi] (module docstring). Where Newton does not converge (the constant-thrust
+    reachable sets are not nested in time, so log F* need not be monotone), the fallback
+    brackets the first reachable duration: from T0 / 4, halved while the target is
+    reachable, then T grown by `SCAN_RATIO` until it is, and the crossing in that last step
+    found by Newton safeguarded by bisection (a Newton step that leaves the bracket bisects
+    it). A reachable excursion shorter than one scan step can be missed."""
     def minimiser(T):
         _, nlp = _condensed(problem, mesh, T, ref)
         return support_minimiser(nlp.E, _ones(nlp), nlp.d)
@@ -94,25 +103,57 @@ def _duration(problem, mesh, ref, T0, hi, options):
     def margin(u, p):
         return _log_margin(problem, mesh, jnp.exp(u), ref, p)
 
+    def at(u):
+        """(p*, log F*, its derivative in u at fixed p*) at T = e^u."""
+        p = jax.lax.stop_gradient(minimiser(jnp.exp(u)))
+        return (p, *jax.value_and_grad(margin)(u, p))
+
     def body(state):
         u, _, k, _ = state
-        p = jax.lax.stop_gradient(minimiser(jnp.exp(u)))
-        g, dg = jax.value_and_grad(margin)(u, p)
+        _, g, dg = at(u)
         # where log F* is not increasing in log T, the step of F* ~ T^2
         step = jnp.where(dg > 0, -g / dg, -0.5 * g)
         u_new = jnp.minimum(u + step, jnp.log(hi))
         u_new = jnp.where(jnp.isfinite(u_new), u_new, u)
         return u_new, u_new - u, k + 1, g
 
+    def test_when(flag, u, reachable):
+        """flag, and the target reachable (or not) at T = e^u: evaluated where flag holds."""
+        return jax.lax.cond(flag, lambda: (at(u)[1] >= 0.0) == reachable,
+                            lambda: jnp.array(False))
+
     u0 = jnp.minimum(jnp.log(T0), jnp.log(hi))
     inf = jnp.asarray(jnp.inf, u0.dtype)
     u, step, _, _ = jax.lax.while_loop(
         lambda s: (jnp.abs(s[1]) > options.duration_tol) & (s[2] < options.duration_iterations),
         body, (u0, inf, 0, inf))
-    T = jnp.exp(u)
-    p = minimiser(T)
-    g, dg = jax.value_and_grad(margin)(u, p)
-    return T, p, dg, (jnp.abs(g) <= 1e-9) & (jnp.abs(step) <= options.duration_tol)
+    p, g, dg = at(u)
+    lost = ~((jnp.abs(g) <= 1e-9) & (jnp.abs(step) <= options.duration_tol))
+    # the fallback (its loops take no step where Newton converged): a reachable start halved
+    # until it is not, then the scan up to the first reachable duration
+    log_hi, ratio = jnp.log(hi), jnp.log(SCAN_RATIO)
+    a, _ = jax.lax.while_loop(
+        lambda s: test_when(lost & (s[1] < SCAN_STEPS), s[0], True),
+        lambda s: (s[0] - jnp.log(2.0), s[1] + 1), (u0 - jnp.log(4.0), 0))
+    a, b, _ = jax.lax.while_loop(
+        lambda s: test_when(lost & (s[1] < log_hi) & (s[2] < SCAN_STEPS), s[1], False),
+        lambda s: (s[1], jnp.minimum(s[1] + ratio, log_hi), s[2] + 1), (a, a, 0))
+
+    def bracketed(s):
+        a, b, x, _, k = s
+        _, g, dg = at(x)
+        a, b = jnp.where(g < 0.0, x, a), jnp.where(g < 0.0, b, x)
+        newton = x - g / jnp.where(dg > 0.0, dg, 1.0)
+        inside = (dg > 0.0) & (newton > a) & (newton < b)
+        x_new = jnp.where(inside, newton, 0.5 * (a + b))
+        return a, b, x_new, x_new - x, k + 1
+
+    _, _, x, x_step, _ = jax.lax.while_loop(
+        lambda s: lost & (jnp.abs(s[3]) > options.duration_tol)
+        & (s[4] < options.duration_iterations), bracketed, (a, b, b, inf, 0))
+    u, step = jnp.where(lost, x, u), jnp.where(lost, x_step, step)
+    p, g, dg = jax.lax.cond(lost, lambda: at(u), lambda: (p, g, dg))
+    return jnp.exp(u), p, dg, (jnp.abs(g) <= 1e-9) & (jnp.abs(step) <= options.duration_tol)
 
 
 def _start(problem):
