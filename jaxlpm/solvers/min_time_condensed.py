@@ -88,6 +88,9 @@ SCAN_RATIO = 1.25     # the fallback's scan for the first reachable duration: T 
 SCAN_STEPS = 64       # its steps at most, each way (1.25^64 ~ 1.6e6)
 
 
+NEWTON, HALVE, SCAN, BRACKET, DONE = range(5)     # the phases of `_duration`'s loop
+
+
 def _duration(problem, mesh, ref, T0, hi, options):
     """(T*, p*, d log F*/d log T at T*, converged): Newton on log F*(T) = 0 in log T, clipped
     to (0, hi] (module docstring). Where Newton does not converge (the constant-thrust
@@ -95,64 +98,76 @@ def _duration(problem, mesh, ref, T0, hi, options):
     brackets the first reachable duration: from T0 / 4, halved while the target is
     reachable, then T grown by `SCAN_RATIO` until it is, and the crossing in that last step
     found by Newton safeguarded by bisection (a Newton step that leaves the bracket bisects
-    it). A reachable excursion shorter than one scan step can be missed."""
-    def minimiser(T):
-        _, nlp = _condensed(problem, mesh, T, ref)
-        return support_minimiser(nlp.E, _ones(nlp), nlp.d)
-
-    def margin(u, p):
-        return _log_margin(problem, mesh, jnp.exp(u), ref, p)
+    it). A reachable excursion shorter than one scan step can be missed. One loop runs the
+    phases, one evaluation of log F* an iteration (one copy of it in the program); where
+    Newton converges it evaluates exactly what Newton alone would."""
+    log_hi, ratio = jnp.log(hi), jnp.log(SCAN_RATIO)
 
     def at(u):
         """(p*, log F*, its derivative in u at fixed p*) at T = e^u."""
-        p = jax.lax.stop_gradient(minimiser(jnp.exp(u)))
-        return (p, *jax.value_and_grad(margin)(u, p))
+        _, nlp = _condensed(problem, mesh, jnp.exp(u), ref)
+        p = jax.lax.stop_gradient(support_minimiser(nlp.E, _ones(nlp), nlp.d))
+        margin = lambda v: _log_margin(problem, mesh, jnp.exp(v), ref, p)   # noqa: E731
+        return (p, *jax.value_and_grad(margin)(u))
 
-    def body(state):
-        u, _, k, _ = state
-        _, g, dg = at(u)
-        # where log F* is not increasing in log T, the step of F* ~ T^2
-        step = jnp.where(dg > 0, -g / dg, -0.5 * g)
-        u_new = jnp.minimum(u + step, jnp.log(hi))
-        u_new = jnp.where(jnp.isfinite(u_new), u_new, u)
-        return u_new, u_new - u, k + 1, g
-
-    def test_when(flag, u, reachable):
-        """flag, and the target reachable (or not) at T = e^u: evaluated where flag holds."""
-        return jax.lax.cond(flag, lambda: (at(u)[1] >= 0.0) == reachable,
-                            lambda: jnp.array(False))
-
-    u0 = jnp.minimum(jnp.log(T0), jnp.log(hi))
-    inf = jnp.asarray(jnp.inf, u0.dtype)
-    u, step, _, _ = jax.lax.while_loop(
-        lambda s: (jnp.abs(s[1]) > options.duration_tol) & (s[2] < options.duration_iterations),
-        body, (u0, inf, 0, inf))
-    p, g, dg = at(u)
-    lost = ~((jnp.abs(g) <= 1e-9) & (jnp.abs(step) <= options.duration_tol))
-    # the fallback (its loops take no step where Newton converged): a reachable start halved
-    # until it is not, then the scan up to the first reachable duration
-    log_hi, ratio = jnp.log(hi), jnp.log(SCAN_RATIO)
-    a, _ = jax.lax.while_loop(
-        lambda s: test_when(lost & (s[1] < SCAN_STEPS), s[0], True),
-        lambda s: (s[0] - jnp.log(2.0), s[1] + 1), (u0 - jnp.log(4.0), 0))
-    a, b, _ = jax.lax.while_loop(
-        lambda s: test_when(lost & (s[1] < log_hi) & (s[2] < SCAN_STEPS), s[1], False),
-        lambda s: (s[1], jnp.minimum(s[1] + ratio, log_hi), s[2] + 1), (a, a, 0))
-
-    def bracketed(s):
-        a, b, x, _, k = s
-        _, g, dg = at(x)
+    def bracket_step(a, b, x, g, dg):
+        """The bracket [a, b] (log F* < 0 at a, >= 0 at b) updated with x and its next point:
+        Newton where it stays inside, else the midpoint."""
         a, b = jnp.where(g < 0.0, x, a), jnp.where(g < 0.0, b, x)
         newton = x - g / jnp.where(dg > 0.0, dg, 1.0)
-        inside = (dg > 0.0) & (newton > a) & (newton < b)
-        x_new = jnp.where(inside, newton, 0.5 * (a + b))
-        return a, b, x_new, x_new - x, k + 1
+        x_new = jnp.where((dg > 0.0) & (newton > a) & (newton < b), newton, 0.5 * (a + b))
+        return a, b, x_new, x_new - x
 
-    _, _, x, x_step, _ = jax.lax.while_loop(
-        lambda s: lost & (jnp.abs(s[3]) > options.duration_tol)
-        & (s[4] < options.duration_iterations), bracketed, (a, b, b, inf, 0))
-    u, step = jnp.where(lost, x, u), jnp.where(lost, x_step, step)
-    p, g, dg = jax.lax.cond(lost, lambda: at(u), lambda: (p, g, dg))
+    def body(s):
+        phase, c, a, b, step, k = s[:6]
+        p, g, dg = at(c)
+        tol_met = jnp.abs(step) <= options.duration_tol
+        out_of_steps = k >= options.duration_iterations
+        # Newton; where log F* is not increasing in log T, the step of F* ~ T^2
+        n_step = jnp.where(dg > 0, -g / dg, -0.5 * g)
+        n_next = jnp.minimum(c + n_step, log_hi)
+        n_next = jnp.where(jnp.isfinite(n_next), n_next, c)
+        newton_ends = tol_met | out_of_steps
+        newton_ok = newton_ends & tol_met & (jnp.abs(g) <= 1e-9)
+        # halving: on while reachable
+        halve_on = (g >= 0.0) & (k < SCAN_STEPS)
+        # scan: on while short of the target
+        scan_on = (g < 0.0) & (c < log_hi) & (k < SCAN_STEPS)
+        ba, bb, bx, bstep = bracket_step(a, jnp.where(phase == SCAN, c, b), c, g, dg)
+        bracket_ends = (phase == BRACKET) & (tol_met | out_of_steps)
+        start = u_start
+        nxt = jnp.select(
+            [phase == NEWTON, phase == HALVE, phase == SCAN],
+            [jnp.where(newton_ends, jnp.where(newton_ok, DONE, HALVE), NEWTON),
+             jnp.where(halve_on, HALVE, SCAN), jnp.where(scan_on, SCAN, BRACKET)],
+            jnp.where(bracket_ends, DONE, BRACKET))
+        c_next = jnp.select(
+            [phase == NEWTON, phase == HALVE, phase == SCAN],
+            [jnp.where(newton_ends, jnp.where(newton_ok, c, start), n_next),
+             jnp.where(halve_on, c - jnp.log(2.0),
+                       jnp.where(g < 0.0, jnp.minimum(c + ratio, log_hi), c)),
+             jnp.where(scan_on, jnp.minimum(c + ratio, log_hi), bx)],
+            jnp.where(bracket_ends, c, bx))
+        a_next = jnp.select([phase == HALVE, phase == SCAN],
+                            [c, jnp.where(scan_on, c, ba)], jnp.where(bracket_ends, a, ba))
+        b_next = jnp.where(phase == SCAN, jnp.where(scan_on, b, bb),
+                           jnp.where((phase == BRACKET) & ~bracket_ends, bb, b))
+        step_next = jnp.select(
+            [phase == NEWTON, phase == HALVE, phase == SCAN],
+            [jnp.where(newton_ends, step, c_next - c), step, jnp.where(scan_on, step, bstep)],
+            jnp.where(bracket_ends, step, bstep))
+        k_next = jnp.where(nxt == phase, k + 1, jnp.where(nxt == BRACKET, 1, 0))
+        return nxt, c_next, a_next, b_next, step_next, k_next, p, g, dg
+
+    u0 = jnp.minimum(jnp.log(T0), log_hi)
+    u_start = u0 - jnp.log(4.0)              # the fallback's first duration
+    inf = jnp.asarray(jnp.inf, u0.dtype)
+    zero = 0.0 * u0
+    p0 = jnp.zeros(ref.shape[-1], u0.dtype)
+    s = jax.lax.while_loop(lambda s: s[0] != DONE, body,
+                           (jnp.asarray(NEWTON), u0, zero, zero, inf, jnp.asarray(0),
+                            p0, zero, zero))
+    _, u, _, _, step, _, p, g, dg = s
     return jnp.exp(u), p, dg, (jnp.abs(g) <= 1e-9) & (jnp.abs(step) <= options.duration_tol)
 
 
