@@ -12,6 +12,7 @@ import pytest
 import jaxlpm as lpm
 from jaxlpm import FuelOptimalTransfer, KeplerOrbit, Status
 from jaxlpm.batch.refine import refine_batch
+from jaxlpm.cases import jiang2011
 
 ORBIT = KeplerOrbit(a=jnp.asarray(10000e3), e=jnp.asarray(0.3))
 PERIOD = float(ORBIT.period)
@@ -96,5 +97,7 @@ def test_bad_requests():
         refine_batch(stack([min_time(0.3)]), gradients=True)
     with pytest.raises(ValueError, match="leading member axis"):
         refine_batch(min_time(0.3))
+    Q, R = jiang2011.weights()
+    lqr = lpm.LQRTransfer(jiang2011.chief(), jiang2011.initial_state(), 3000.0, Q, R)
     with pytest.raises(ValueError, match="refine_batch refines"):
-        refine_batch(lpm.LQRTransfer.__new__(lpm.LQRTransfer))
+        refine_batch(lqr)

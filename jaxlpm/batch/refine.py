@@ -191,12 +191,12 @@ def refinement_plan(problems, ladder=None, options=None):
             options = FuelALOptions() if problems.constraints else HomotopyOptions()
         if ladder is None:
             ladder = (_fuel_ladder(fuel_optimal.CONSTRAINED_SEGMENTS, fuel_optimal.DEFAULT_POINTS,
-                                   1) if problems.constraints else FuelPlan.ladder)
+                                   fuel_optimal.ALIGN_PASSES) if problems.constraints
+                      else FuelPlan.ladder)
         return FuelPlan(ladder, options)
     if isinstance(problems, MinimumTimeTransfer):
-        hcw = problems.model == "linear" and bool(np.all(np.asarray(problems.orbit.e) == 0.0))
         if options is None:
-            options = ALOptions() if hcw else CondensedOptions()
+            options = ALOptions() if min_time._hcw(problems) else CondensedOptions()
         if ladder is None:
             ladder = (min_time.LADDER if isinstance(options, ALOptions) else MeshLadder(
                 tuple((k, min_time_condensed.DEFAULT_POINTS)
@@ -248,7 +248,8 @@ def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAUL
 
     ladder: the rungs' mesh shapes (None: the family's, as its single solve climbs them:
     `DEFAULT_LADDER`; the fuel family's 24 x 8 uniform, then 3 aligned passes each of 24, 48
-    and 96 segments of 8 points; minimum time's `min_time.LADDER` on HCW, else 16, 32, 64 and
+    and 96 segments of 8 points, with safety constraints 16 x 8 uniform, then 3 aligned
+    passes each of 16 and 24 segments; minimum time's `min_time.LADDER` on HCW, else 16, 32, 64 and
     128 x 8). options: the solver's (None: the family's default). record(solution) -> dict of
     arrays: what is kept of each member's final solution (the default: `accuracy_record`; it
     may fly the solution, `jaxlpm.verify.fly`). gradients: also the implicit gradient of the
@@ -273,8 +274,7 @@ def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAUL
         if carry is None:
             breaks = np.tile(plan.first_breaks(k), (todo.size, 1))
         else:
-            host = jax.tree_util.tree_map(np.asarray, carry)
-            breaks = np.stack([plan.next_breaks(_take(host, i), k, previous)
+            breaks = np.stack([plan.next_breaks(_take(carry, i), k, previous)
                                for i in range(todo.size)])
         fn = _rung_function(plan, shape, previous if plan.warm_start else None, tolerance,
                             width, record, gradients)

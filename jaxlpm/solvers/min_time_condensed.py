@@ -135,7 +135,6 @@ def _duration(problem, mesh, ref, T0, hi, options):
         scan_on = (g < 0.0) & (c < log_hi) & (k < SCAN_STEPS)
         ba, bb, bx, bstep = bracket_step(a, jnp.where(phase == SCAN, c, b), c, g, dg)
         bracket_ends = (phase == BRACKET) & (tol_met | out_of_steps)
-        start = u_start
         nxt = jnp.select(
             [phase == NEWTON, phase == HALVE, phase == SCAN],
             [jnp.where(newton_ends, jnp.where(newton_ok, DONE, HALVE), NEWTON),
@@ -143,7 +142,7 @@ def _duration(problem, mesh, ref, T0, hi, options):
             jnp.where(bracket_ends, DONE, BRACKET))
         c_next = jnp.select(
             [phase == NEWTON, phase == HALVE, phase == SCAN],
-            [jnp.where(newton_ends, jnp.where(newton_ok, c, start), n_next),
+            [jnp.where(newton_ends, jnp.where(newton_ok, c, u_start), n_next),
              jnp.where(halve_on, c - jnp.log(2.0),
                        jnp.where(g < 0.0, jnp.minimum(c + ratio, log_hi), c)),
              jnp.where(scan_on, jnp.minimum(c + ratio, log_hi), bx)],
