@@ -1,7 +1,7 @@
 """Command line: `jaxlpm reproduce <case> [--json FILE] [--out DIR]`, `jaxlpm list`,
-`jaxlpm sweep <case> --e A:B:n --revolutions A:B:n --points 17,33,65 [--method kkt] [--out DIR]
-[--sensitivities]` (resumable; see `jaxlpm.batch.sweep`). Grid sizes are numbers of points
-(lgl(65): 65 points, Mei 2010's degree N = 64)."""
+`jaxlpm sweep <case> --e A:B:n --revolutions A:B:n --points 17,33,65[,refine] [--method kkt]
+[--out DIR] [--sensitivities]` (resumable; see `jaxlpm.batch.sweep`). Grid sizes are numbers of
+points (lgl(65): 65 points, Mei 2010's degree N = 64); "refine" adds adaptive mesh refinement."""
 
 import argparse
 import json
@@ -138,6 +138,16 @@ def _values(text, integer=False):
     return values
 
 
+def _points(text):
+    """--points: grid sizes ('17,33,65' or 'a:b:n') and/or 'refine' (adaptive refinement)."""
+    from .batch.sweep import REFINE
+
+    tokens = text.split(",")
+    refine = REFINE in tokens
+    rest = ",".join(t for t in tokens if t != REFINE)
+    return (_values(rest, integer=True) if rest else []) + ([REFINE] if refine else [])
+
+
 def _sweep(args):
     import importlib
 
@@ -167,17 +177,19 @@ def _sweep(args):
     stats = result.statistics()
     for n, s in result.summary().items():
         bad = s["not_converged"]
-        print(f"{n:>4} points: {s['converged']}/{s['members']} converged"
+        print(f"{n:>4}{'' if n == 'refine' else ' points'}: {s['converged']}/{s['members']} "
+              f"converged"
               + (f"; not converged: members {bad[:20]}{' ...' if len(bad) > 20 else ''} "
                  f"({', '.join(f'{k} {v}' for k, v in s['status_counts'].items())})"
                  if bad else ""))
         for col, unit in (("cost", "m^2/s^3"), ("delta_v", "m/s")):
-            c = stats[int(n)][col]
+            c = stats[n if n == "refine" else int(n)][col]
             if c["converged"]:
                 print(f"         {col} over the converged ({unit}): median "
                       f"{c['percentiles'][50.0]:.6g}, 5-95 % [{c['percentiles'][5.0]:.6g}, "
                       f"{c['percentiles'][95.0]:.6g}], mean {c['mean']:.6g}")
-    print(f"results in {out} (manifest.json; points<n>/chunk_*.npz, one row per member; "
+    print(f"results in {out} (manifest.json; points<n>/ and refined/chunk_*.npz, one row per "
+          f"member; "
           f"jaxlpm.batch.load_sweep reads them)")
     return 0
 
@@ -218,9 +230,10 @@ def main(argv=None):
     dur = swp.add_mutually_exclusive_group()
     dur.add_argument("--revolutions", type=_values, help="durations in chief orbital periods")
     dur.add_argument("--duration", type=_values, help="durations in s")
-    swp.add_argument("--points", type=lambda t: _values(t, integer=True), required=True,
+    swp.add_argument("--points", type=_points, required=True,
                      help="grid sizes as numbers of points, grids lgl(points), e.g. 17,33,65 "
-                          "(Mei 2010's degree N = 64 is 65 points)")
+                          "(Mei 2010's degree N = 64 is 65 points), and/or 'refine': adaptive "
+                          "mesh refinement to the default tolerance (Newton-KKT on LGR meshes)")
     swp.add_argument("--N", action=_DegreeGone, help=argparse.SUPPRESS)
     swp.add_argument("--method", default="kkt", choices=("kkt", "stm", "newton"),
                      help="kkt/stm: the linear laws (linear model); newton: Newton-KKT on the "

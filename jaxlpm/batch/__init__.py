@@ -7,12 +7,14 @@ from .family import (SweepFamily, problem_table, sensitivity_family, solution_re
                      solve_member, transfer_builder, transfer_family, transfer_record)
 from .montecarlo import (ExecutionErrors, execution_draws, execution_monte_carlo,
                          replan_monte_carlo)
+from .mapping import map_in_groups
+from .refine import Refinement, refine_batch
 from .store import ChunkStore, save_npz_atomic, write_json_atomic
-from .sweep import (SweepResult, converged_statistics, load_sweep, map_in_groups,
-                    parameter_grid, sweep)
+from .sweep import SweepResult, converged_statistics, load_sweep, parameter_grid, sweep
 
 __all__ = ["ChunkStore", "ExecutionErrors", "SweepFamily", "SweepResult",
            "converged_statistics", "execution_draws", "execution_monte_carlo", "load_sweep",
-           "map_in_groups", "parameter_grid", "problem_table", "replan_monte_carlo",
+           "map_in_groups", "parameter_grid", "problem_table", "Refinement", "refine_batch",
+           "replan_monte_carlo",
            "save_npz_atomic", "sensitivity_family", "solution_record", "solve_member", "sweep",
            "transfer_builder", "transfer_family", "transfer_record", "write_json_atomic"]

@@ -31,7 +31,8 @@ from ..collocation import lgl
 from ..status import Status
 from ..verify.fly import flight_model, propagate_linear, propagate_nonlinear
 from .family import SweepFamily, problem_table, solution_record
-from .sweep import PERCENTILES, converged_statistics, map_in_groups, sweep
+from .mapping import map_in_groups
+from .sweep import PERCENTILES, converged_statistics, sweep
 
 
 def _name(fn) -> str:

@@ -18,6 +18,7 @@ without a grid):
                    minimum-time guess (`MinTimePlan`)
 """
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 
@@ -34,7 +35,7 @@ from ..nlp.newton import NewtonOptions
 from ..problems import EnergyOptimalTransfer, MinimumTimeTransfer
 from ..problems.fuel_optimal import FuelOptimalTransfer
 from ..problems.energy_optimal import scaled_rows
-from ..solution import DEFAULT_TOLERANCE, judge
+from ..solution import DEFAULT_TOLERANCE, Tolerance, judge
 from ..solution.accuracy import refinement_error
 from ..solvers import fuel_optimal, min_time, min_time_condensed
 from ..solvers.energy_optimal import rung_options
@@ -43,7 +44,7 @@ from ..solvers.min_time_condensed import CondensedOptions
 from ..solvers.refine import DEFAULT_LADDER, MeshLadder, interpolated_guess, split_breaks
 from ..solvers.transfer import newton_transfer
 from ..status import Status
-from .sweep import map_in_groups
+from .mapping import map_in_groups
 
 _RECORD_KEYS = ("iterations", "newton_iterations", "fuel", "constraint_violation",
                 "violation_position", "violation_velocity", "path_violation")
@@ -78,6 +79,10 @@ class EnergyPlan:
     ladder: MeshLadder = DEFAULT_LADDER
     options: NewtonOptions | ALOptions = NewtonOptions()
     warm_start = True
+
+    @property
+    def method(self):
+        return "augmented-lagrangian" if isinstance(self.options, ALOptions) else "newton"
 
     def rung_options(self, shape):
         return rung_options(self.options, shape[0])
@@ -121,6 +126,10 @@ class FuelPlan:
     options: HomotopyOptions | FuelALOptions = HomotopyOptions()
     warm_start = False
 
+    @property
+    def method(self):
+        return "augmented-lagrangian" if isinstance(self.options, FuelALOptions) else "homotopy"
+
     def rung_options(self, shape):
         return self.options
 
@@ -133,8 +142,8 @@ class FuelPlan:
         return aligned_breaks(0.0, 1.0, k, fuel_optimal.interior_switches(runs))
 
     def solve(self, problem, breaks, prev, shape, previous, options):
-        return fuel_optimal.run(problem, SegmentedMesh(breaks, lgr(shape[1])),
-                                fuel_optimal.default_method(problem), options)
+        return fuel_optimal.run(problem, SegmentedMesh(breaks, lgr(shape[1])), self.method,
+                                options)
 
     def carry(self, solution, breaks, tolerance):
         st = solution.stats
@@ -156,6 +165,10 @@ class MinTimePlan:
     def condensed(self):
         return isinstance(self.options, CondensedOptions)
 
+    @property
+    def method(self):
+        return "condensed" if self.condensed else "augmented-lagrangian"
+
     def rung_options(self, shape):
         return self.options
 
@@ -169,11 +182,8 @@ class MinTimePlan:
         return split_breaks(carry["breaks"], carry["error"], k)
 
     def solve(self, problem, breaks, prev, shape, previous, options):
-        if self.condensed:
-            return min_time.run(problem, SegmentedMesh(breaks, lgr(shape[1])), "condensed",
-                                options)
-        return min_time.run(problem, LGRMesh(breaks, lgr(shape[1])), "augmented-lagrangian",
-                            options)
+        mesh = (SegmentedMesh if self.condensed else LGRMesh)(breaks, lgr(shape[1]))
+        return min_time.run(problem, mesh, self.method, options)
 
     def carry(self, solution, breaks, tolerance):
         return dict(breaks=breaks, error=refinement_error(solution.stats, tolerance))
@@ -206,30 +216,110 @@ def refinement_plan(problems, ladder=None, options=None):
                      f"MinimumTimeTransfer batches, got {type(problems).__name__}")
 
 
-@functools.lru_cache(maxsize=None)
-def _rung_function(plan, shape, previous, tolerance, width, record, gradients):
-    """jit(map over members) of one rung: (problems, breaks, carried previous solution) ->
-    (records, carry for the next rung)."""
+@dataclass(frozen=True)
+class Refinement:
+    """How a batch refines (`refine_batch`, and a sweep's "refine" group: `jaxlpm.batch.sweep`):
+    ladder (None: the family's, `refinement_plan`), tolerance (`jaxlpm.Tolerance`, SI) and
+    gradients (also the implicit gradient of the cost with respect to every leaf of the
+    problem, on each member's final mesh: `gradient_record`; energy- and fuel-optimal only)."""
+
+    ladder: MeshLadder | None = None
+    tolerance: Tolerance = DEFAULT_TOLERANCE
+    gradients: bool = False
+
+    def settings(self) -> dict:
+        """JSON-able (a sweep's definition)."""
+        return dict(ladder=None if self.ladder is None else [list(r) for r in self.ladder.rungs],
+                    tolerance=dataclasses.asdict(self.tolerance), gradients=self.gradients)
+
+
+def rung_member(plan, shape, previous, refinement, record, build=None):
+    """One member on one rung: (member, breaks, carried previous solution) -> (its record,
+    what the next rung needs of it); member is a problem, or with `build` the parameters
+    build(member) makes it from (a sweep's row)."""
     options = plan.rung_options(shape)
+    previous = previous if plan.warm_start else None
 
     def solve(problem, breaks, prev):
-        sol = judge(plan.solve(problem, breaks, prev, shape, previous, options), tolerance)
+        sol = judge(plan.solve(problem, breaks, prev, shape, previous, options),
+                    refinement.tolerance)
         return sol.cost, sol
 
     def member(args):
         problem, breaks, prev = args
-        if gradients:     # the implicit gradient on this rung's mesh: one adjoint solve
+        if build is not None:
+            problem = build(problem)
+        if refinement.gradients:     # the implicit gradient on this rung's mesh: one adjoint solve
             (_, sol), grad = jax.value_and_grad(solve, has_aux=True)(problem, breaks, prev)
             extra = gradient_record(grad)
         else:
             sol, extra = solve(problem, breaks, prev)[1], {}
-        return record(sol) | extra, plan.carry(sol, breaks, tolerance)
+        return record(sol) | extra, plan.carry(sol, breaks, refinement.tolerance)
 
-    return jax.jit(lambda ps, bs, prev: map_in_groups(member, (ps, bs, prev), width))
+    return member
+
+
+def masked(member):
+    """member on the rows where `active`, zeros of its outputs' shapes elsewhere: a
+    `lax.cond`, so an inactive row costs nothing where members run one at a time (lax.map
+    width 1; under a wider vmap the cond becomes a select and the row is solved anyway).
+    Every rung then has one fixed shape, the batch's (or a sweep chunk's) rows."""
+    def run(args):
+        xs, active = args
+        shapes = jax.eval_shape(member, xs)
+        return jax.lax.cond(active, member, lambda _: jax.tree_util.tree_map(
+            lambda s: jnp.zeros(s.shape, s.dtype), shapes), xs)
+    return run
+
+
+@functools.lru_cache(maxsize=None)
+def _rung_function(plan, shape, previous, refinement, width, record):
+    """jit(map over the batch's rows) of one rung: (problems, breaks, carried previous
+    solution, active) -> (records, carry for the next rung)."""
+    member = masked(rung_member(plan, shape, previous, refinement, record))
+    return jax.jit(lambda ps, bs, prev, active: map_in_groups(
+        member, ((ps, bs, prev), active), width))
 
 
 def _take(tree, idx):
     return jax.tree_util.tree_map(lambda x: x[idx], tree)
+
+
+def climb(plan, rows: int, active, run_rung, log=None) -> dict:
+    """The ladder for a batch of `rows` members of which `active` (bool (rows,)) are solved:
+    run_rung(index, shape, previous, breaks, carry, active) -> (records, carry) runs one rung on
+    all rows (carry None on the first; jnp.zeros(rows) stands for it where the plan does not
+    warm-start), solving the active ones. Returns the records as NumPy arrays of the active
+    members' final rungs (zeros elsewhere) plus "rung" and "segments"."""
+    todo = np.asarray(active, bool).copy()
+    out, carry, previous = None, None, None
+    for index, shape in enumerate(plan.ladder.rungs):
+        k = shape[0]
+        breaks = np.tile(plan.first_breaks(k), (rows, 1))
+        if carry is not None:
+            for i in np.flatnonzero(todo):
+                breaks[i] = plan.next_breaks(_take(carry, i), k, previous)
+        recs, carry = run_rung(index, shape, previous, jnp.asarray(breaks),
+                               carry if carry is not None and plan.warm_start
+                               else jnp.zeros(rows), jnp.asarray(todo))
+        recs = {key: np.asarray(v) for key, v in recs.items()}
+        if out is None:
+            out = {key: np.zeros((rows,) + v.shape[1:], v.dtype) for key, v in recs.items()}
+            out["rung"] = np.zeros(rows, np.int32)
+            out["segments"] = np.zeros(rows, np.int32)
+        for key, v in recs.items():
+            out[key][todo] = v[todo]
+        out["rung"][todo], out["segments"][todo] = index, k
+        again = todo & (recs["status"] == Status.INACCURATE)
+        if log is not None:
+            log(f"rung {index} ({k} x {shape[1]}): {int(todo.sum())} members, "
+                f"{int(again.sum())} still INACCURATE")
+        todo = again
+        if not todo.any():
+            break
+        carry = jax.tree_util.tree_map(np.asarray, carry)
+        previous = shape
+    return out
 
 
 def _member_rows(problems, n):
@@ -238,6 +328,13 @@ def _member_rows(problems, n):
     return jax.tree_util.tree_map(
         lambda x, one: jnp.broadcast_to(x, (n,) + np.shape(one))
         if np.ndim(x) == np.ndim(one) else x, problems, problems.harmless())
+
+
+def check_refinement(plan, refinement: Refinement):
+    """ValueError for a refinement the plan cannot do."""
+    if refinement.gradients and isinstance(plan, MinTimePlan):
+        raise ValueError("gradients=True: a minimum-time solve is not differentiated (its "
+                         "costates give dt_f/dx0 and dt_f/dxf)")
 
 
 def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAULT_TOLERANCE,
@@ -256,46 +353,22 @@ def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAUL
     cost with respect to every leaf of the problem (`gradient_record`: dcost_dx0,
     dcost_dduration, dcost_dorbit.e, ...), taken on each member's final mesh (its breaks held
     fixed); energy- and fuel-optimal only (a minimum-time solve is not differentiated).
-    Returns the records as NumPy arrays (members first) plus "rung" (the rung each member
-    ended on) and "segments" (its mesh's segment count)."""
+    Every rung runs on all members (one compiled function per rung for the batch's size), the
+    members already done skipped by a `lax.cond` (`masked`). Returns the records as NumPy
+    arrays (members first) plus "rung" (the rung each member ended on) and "segments" (its
+    mesh's segment count)."""
+    refinement = Refinement(ladder, tolerance, gradients)
     plan = refinement_plan(problems, ladder, options)
-    if gradients and isinstance(plan, MinTimePlan):
-        raise ValueError("gradients=True: a minimum-time solve is not differentiated (its "
-                         "costates give dt_f/dx0 and dt_f/dxf)")
+    check_refinement(plan, refinement)
     if np.ndim(problems.x0) != 2 or np.shape(problems.x0)[0] < 1:
         raise ValueError(f"problems must carry a leading member axis (x0 of shape (n, 6)), "
                          f"got x0 of shape {np.shape(problems.x0)}")
     n_members = np.shape(problems.x0)[0]
     problems = _member_rows(problems, n_members)
-    todo = np.arange(n_members)
-    out, carry, previous = None, None, None
-    for index, shape in enumerate(plan.ladder.rungs):
-        k = shape[0]
-        if carry is None:
-            breaks = np.tile(plan.first_breaks(k), (todo.size, 1))
-        else:
-            breaks = np.stack([plan.next_breaks(_take(carry, i), k, previous)
-                               for i in range(todo.size)])
-        fn = _rung_function(plan, shape, previous if plan.warm_start else None, tolerance,
-                            width, record, gradients)
-        recs, new_carry = fn(_take(problems, todo), jnp.asarray(breaks),
-                             carry if carry is not None and plan.warm_start
-                             else jnp.zeros(todo.size))
-        recs = {key: np.asarray(v) for key, v in recs.items()}
-        if out is None:
-            out = {key: np.zeros((n_members,) + v.shape[1:], v.dtype) for key, v in recs.items()}
-            out["rung"] = np.zeros(n_members, np.int32)
-            out["segments"] = np.zeros(n_members, np.int32)
-        for key, v in recs.items():
-            out[key][todo] = v
-        out["rung"][todo], out["segments"][todo] = index, k
-        again = recs["status"] == Status.INACCURATE
-        if log is not None:
-            log(f"rung {index} ({k} x {shape[1]}): {todo.size} members, "
-                f"{int(again.sum())} still INACCURATE")
-        todo = todo[again]
-        if not todo.size:
-            break
-        carry = _take(jax.tree_util.tree_map(np.asarray, new_carry), np.flatnonzero(again))
-        previous = shape
-    return out
+
+    def run_rung(index, shape, previous, breaks, carry, active):
+        fn = _rung_function(plan, shape, previous if plan.warm_start else None, refinement,
+                            width, record)
+        return fn(problems, breaks, carry, active)
+
+    return climb(plan, n_members, np.ones(n_members, bool), run_rung, log)

@@ -55,18 +55,14 @@ from tqdm import tqdm
 
 from .._validation import require_x64
 from ..status import Status
-from .family import SweepFamily
+from .family import SweepFamily, solve_member
+from .mapping import map_in_groups
+from .refine import Refinement, check_refinement, climb, masked, refinement_plan, rung_member
 from .store import MANIFEST, SCHEMA_VERSION, ChunkStore, read_chunk
 
 PERCENTILES = (5.0, 50.0, 95.0)       # reported by default with the mean and spread
-RESERVED = ("index", "points", "compute_log")
-
-
-def map_in_groups(fun, xs, width):
-    """`lax.map` of fun over xs' leading axis in vmapped groups of `width` members; width 1
-    (or None) runs the members one at a time, not vmapped: a vmap, even of one member, turns
-    every `lax.cond` of an iterative solver into a select that runs both branches."""
-    return jax.lax.map(fun, xs, batch_size=None if width in (None, 1) else width)
+RESERVED = ("index", "points", "compute_log", "rung", "segments")
+REFINE = "refine"      # the group of a sweep solved by adaptive mesh refinement
 
 
 def parameter_grid(**axes) -> dict:
@@ -169,46 +165,118 @@ def _check_sweep_inputs(family, params, points, chunk_size, batch_size):
     for reserved in RESERVED:
         if reserved in params:
             raise ValueError(f"{reserved!r} is a reserved column name, rename that parameter")
-    counts = np.atleast_1d(np.asarray(points))
-    if (counts.ndim != 1 or counts.size == 0 or not np.issubdtype(counts.dtype, np.integer)
-            or counts.min() < 1):
+    items = [points] if isinstance(points, (str, int, np.integer)) else list(points)
+    refine = REFINE in items
+    counts = np.asarray([v for v in items if not (isinstance(v, str) and v == REFINE)])
+    if ((not refine and counts.size == 0) or counts.ndim != 1
+            or (counts.size and (not np.issubdtype(counts.dtype, np.integer)
+                                 or counts.min() < 1))):
         raise ValueError(f"points must be a non-empty list of positive integers (grid sizes "
-                         f"in points: lgl(17) has 17), got {points!r}")
+                         f"in points: lgl(17) has 17) and/or {REFINE!r} (adaptive mesh "
+                         f"refinement), got {points!r}")
     for name, value in (("chunk_size", chunk_size), ("batch_size", batch_size)):
         if value is not None and (isinstance(value, bool) or int(value) != value or value < 1):
             raise ValueError(f"{name} must be a positive integer, got {value!r}")
     if family.validate is not None:
         family.validate(params)
-    return params, sorted({int(n) for n in counts}), members
+    return params, sorted({int(n) for n in counts}) + ([REFINE] if refine else []), members
 
 
 def _digest(x: np.ndarray) -> str:
     return hashlib.sha256(np.ascontiguousarray(x).tobytes()).hexdigest()
 
 
-def sweep_definition(family: SweepFamily, params: dict, points, chunk_size: int) -> dict:
+def sweep_definition(family: SweepFamily, params: dict, points, chunk_size: int,
+                     refinement: dict | None = None) -> dict:
     """What determines a sweep's results and layout (recorded in and checked against the
-    manifest): the family's name and settings, the point counts, the chunk size and the
-    parameter table."""
-    return dict(family=family.name, family_definition=family.settings(), points=list(points),
-                chunk_size=int(chunk_size), members=int(next(iter(params.values())).shape[0]),
-                parameters={k: dict(shape=list(v.shape[1:]), dtype=str(v.dtype),
-                                    min=float(v.min()), max=float(v.max()), sha256=_digest(v))
-                            for k, v in params.items()})
+    manifest): the family's name and settings, the point counts (and "refine"), the chunk
+    size, the parameter table and, with a "refine" group, its `Refinement` settings and
+    method."""
+    out = dict(family=family.name, family_definition=family.settings(), points=list(points),
+               chunk_size=int(chunk_size), members=int(next(iter(params.values())).shape[0]),
+               parameters={k: dict(shape=list(v.shape[1:]), dtype=str(v.dtype),
+                                   min=float(v.min()), max=float(v.max()), sha256=_digest(v))
+                           for k, v in params.items()})
+    if refinement is not None:
+        out["refinement"] = refinement
+    return out
 
 
-def _chunk_function(family, grid, batch_size, mesh):
-    """jit(shard_map(lax.map(family.evaluate))): each device solves its own block of a chunk,
+def _sharded(member, batch_size, mesh):
+    """jit(shard_map(lax.map(member))): each device solves its own block of a chunk,
     `batch_size` members at a time by vmap. shard_map (rather than vmap over a device axis)
     keeps devices independent: an iterative solver's while loop is not run in lockstep
     across devices (no all-reduce of its stopping test)."""
-    def block(ps):
-        return map_in_groups(lambda p: family.evaluate(p, grid), ps, batch_size)
+    def block(*xs):
+        return map_in_groups(member, xs if len(xs) > 1 else xs[0], batch_size)
 
     # check_vma=False: the blocks never communicate, and the varying-axes type check rejects
     # the cotangents of custom_vjp rules (jaxopt's implicit diff) under reverse mode.
     return jax.jit(jax.shard_map(block, mesh=mesh, in_specs=P("batch"), out_specs=P("batch"),
                                  check_vma=False))
+
+
+def _chunk_function(family, grid, batch_size, mesh):
+    """A chunk on `grid`: family.evaluate of each member (`_sharded`)."""
+    return _sharded(lambda p: family.evaluate(p, grid), batch_size, mesh)
+
+
+def _rung_function(plan, shape, previous, refinement, family, batch_size, mesh):
+    """A chunk on one rung of the refinement: (params, breaks, carry, active) -> (records,
+    carry), each member built by the family and solved by the plan where active
+    (`jaxlpm.batch.refine.rung_member`, `masked`)."""
+    member = masked(rung_member(plan, shape, previous, refinement, family.record,
+                                build=family.build))
+    return _sharded(lambda args: member((args[:3], args[3])), batch_size, mesh)
+
+
+class _RefinedChunks:
+    """The "refine" group of a sweep: every chunk climbs the plan's ladder (`climb`), each
+    rung one function for the chunk's fixed shape, compiled at its first use and kept."""
+
+    def __init__(self, family, params, refinement, lay, mesh, sharding, compiler_options):
+        if family.solver is not solve_member:
+            raise ValueError(f"family {family.name!r} has its own solver; a {REFINE!r} group "
+                             f"solves each member by its family's refinement (as "
+                             f"`jaxlpm.solve(problem)` without a grid): derivatives come "
+                             f"from Refinement(gradients=True), not sensitivity_family")
+        self.refinement = refinement or Refinement()
+        problems = jax.vmap(family.build)(params)
+        self.plan = refinement_plan(problems, self.refinement.ladder, family.options)
+        check_refinement(self.plan, self.refinement)
+        self.family, self.lay, self.mesh, self.sharding = family, lay, mesh, sharding
+        self.compiler_options = compiler_options
+        self.compiled, self.compile_s = {}, {}
+
+    def settings(self) -> dict:
+        return dict(self.refinement.settings(), method=self.plan.method,
+                    rungs=[list(r) for r in self.plan.ladder.rungs])
+
+    def _place(self, tree):
+        return jax.tree_util.tree_map(lambda v: jax.make_array_from_callback(
+            v.shape, self.sharding, lambda i, v=np.asarray(v): v[i]), tree)
+
+    def __call__(self, batch, members: int) -> dict:
+        """One chunk's records (`lay.rows` rows, the first `members` of them real)."""
+        active = np.arange(self.lay.rows) < members
+
+        def run_rung(index, shape, previous, breaks, carry, act):
+            args = (batch,) + self._place((breaks, carry, act))
+            if index not in self.compiled:
+                t = time.perf_counter()
+                fn = _rung_function(self.plan, shape, previous if self.plan.warm_start else None,
+                                    self.refinement, self.family, self.lay.width, self.mesh)
+                lowered = fn.lower(*args)
+                clash = set(lowered.out_info[0]) & (set(batch) | set(RESERVED))
+                if clash or "status" not in lowered.out_info[0]:
+                    raise ValueError(f"family {self.family.name!r}: the record needs a 'status' "
+                                     f"and no name of a parameter or of {RESERVED}; clashes: "
+                                     f"{sorted(clash)}")
+                self.compiled[index] = lowered.compile(self.compiler_options)
+                self.compile_s[index] = time.perf_counter() - t
+            return _gather(jax.block_until_ready(self.compiled[index](*args)))
+
+        return climb(self.plan, self.lay.rows, active, run_rung)
 
 
 @dataclass(frozen=True)
@@ -234,8 +302,8 @@ def _layout(chunk_size, batch_size, devices) -> _Layout:
     return _Layout(chunk_size, devices, per_device, width)
 
 
-def _group(points: int) -> str:
-    return f"points{points}"
+def _group(points) -> str:
+    return "refined" if points == REFINE else f"points{points}"
 
 
 def _lower(family, points, width, mesh, batch, params):
@@ -252,8 +320,10 @@ def _lower(family, points, width, mesh, batch, params):
 
 def sweep(family: SweepFamily, params: dict, points, out=None, chunk_size: int = 256,
           batch_size: int | None = None, progress: bool = True, run_info: dict | None = None,
-          compiler_options: dict | None = None) -> SweepResult:
-    """Solve `family` for every member of `params` at every grid size in `points`.
+          compiler_options: dict | None = None,
+          refinement: Refinement | None = None) -> SweepResult:
+    """Solve `family` for every member of `params` at every grid size in `points`, and by
+    adaptive mesh refinement where `points` holds "refine".
 
     params      dict of arrays with a common leading (member) axis (`parameter_grid` makes
                 one from axes, `problem_table` from a batched problem); validated on the host
@@ -261,7 +331,16 @@ def sweep(family: SweepFamily, params: dict, points, out=None, chunk_size: int =
     points      grid sizes as numbers of points (`family.grid(n)`: lgl(17) has 17 points, Mei
                 2010's degree N = 16); grouped, one compiled function each. The smallest is
                 traced before anything is written, so a method, options or grid size the
-                solver refuses raises its ValueError and leaves no directory
+                solver refuses raises its ValueError and leaves no directory.
+                "refine" (after the point counts; its table's key and the folder `refined`):
+                every member solved as `jaxlpm.solve(problem)` solves it without a grid, by
+                its family's refinement (`jaxlpm.batch.refine`: Newton-KKT on the
+                `MeshLadder`, the fuel family's aligned meshes, minimum time's ladder; the
+                family's method is not used, its options are) until the error estimate meets
+                the tolerance. Each chunk solves all its members on the first rung, then only
+                its INACCURATE ones on the next (one compiled function per rung for the
+                chunk's shape, the others skipped, warm-started where the family is); the
+                record gains "rung" and "segments" (the final mesh's)
     out         results directory (resumable, see the module docstring), or None: in memory
     chunk_size  members per chunk (part of the definition: fixes the files' layout)
     batch_size  members a device solves at once by vmap inside its lax.map (default: on CPU the
@@ -271,6 +350,9 @@ def sweep(family: SweepFamily, params: dict, points, out=None, chunk_size: int =
     run_info    extra JSON-able facts about this invocation for the manifest's `runs`
     compiler_options  passed to XLA's compile (e.g. {"xla_backend_optimization_level": 0}
                 compiles large solvers faster and runs them slower)
+    refinement  the "refine" group's `jaxlpm.batch.refine.Refinement` (ladder, tolerance,
+                gradients; None: `Refinement()`, the family's ladder and `DEFAULT_TOLERANCE`);
+                part of the definition
     batch_size, the device count and compiler_options are not part of the definition: a
     resumed sweep may change them, which changes results at round-off level only (the vmap
     width changes how XLA vectorises a member's arithmetic)
@@ -293,7 +375,10 @@ def sweep(family: SweepFamily, params: dict, points, out=None, chunk_size: int =
     mesh = jax.make_mesh((lay.devices,), ("batch",), axis_types=(jax.sharding.AxisType.Auto,))
     sharding = NamedSharding(mesh, P("batch"))
     lead = jax.process_index() == 0
-    definition = sweep_definition(family, params, points, chunk_size)
+    refined = (_RefinedChunks(family, params, refinement, lay, mesh, sharding, compiler_options)
+               if REFINE in points else None)
+    definition = sweep_definition(family, params, points, chunk_size,
+                                  None if refined is None else refined.settings())
 
     def chunk_members(c):
         idx = np.arange(c * chunk_size, min((c + 1) * chunk_size, members))
@@ -304,7 +389,8 @@ def sweep(family: SweepFamily, params: dict, points, out=None, chunk_size: int =
         return idx, batch
 
     t = time.perf_counter()
-    first = _lower(family, points[0], lay.width, mesh, chunk_members(0)[1], params)
+    first = (None if points[0] == REFINE
+             else _lower(family, points[0], lay.width, mesh, chunk_members(0)[1], params))
     first_s = time.perf_counter() - t
     store = None
     if out is not None and lead:
@@ -324,18 +410,28 @@ def sweep(family: SweepFamily, params: dict, points, out=None, chunk_size: int =
         mine = np.flatnonzero(todo[row]).tolist()
         if not mine:
             continue
-        t = time.perf_counter()
-        lowered = first if row == 0 else _lower(family, n, lay.width, mesh,
-                                                chunk_members(mine[0])[1], params)
-        compiled = lowered.compile(compiler_options)
-        compile_s = time.perf_counter() - t + (first_s if row == 0 else 0.0)
-        if store is not None:
-            store.update(compiles=dict(run=store.run, points=n, seconds=compile_s))
+        if n == REFINE:
+            compiled = refined
+        else:
+            t = time.perf_counter()
+            lowered = first if row == 0 else _lower(family, n, lay.width, mesh,
+                                                    chunk_members(mine[0])[1], params)
+            compiled = lowered.compile(compiler_options)
+            compile_s = time.perf_counter() - t + (first_s if row == 0 else 0.0)
+            if store is not None:
+                store.update(compiles=dict(run=store.run, points=n, seconds=compile_s))
         for c in mine:
             idx, batch = chunk_members(c)
             t = time.perf_counter()
-            rec = _gather(jax.block_until_ready(compiled(batch)))
-            seconds = time.perf_counter() - t
+            if n == REFINE:
+                known = set(refined.compiled)
+                rec = refined(batch, idx.size)
+                compile_s = sum(refined.compile_s[k] for k in set(refined.compiled) - known)
+                if store is not None and compile_s:
+                    store.update(compiles=dict(run=store.run, points=n, seconds=compile_s))
+            else:
+                rec, compile_s = _gather(jax.block_until_ready(compiled(batch))), 0.0
+            seconds = time.perf_counter() - t - compile_s
             rec = {k: v[:idx.size] for k, v in rec.items()}
             arrays = dict(index=idx, points=np.full(idx.size, n),
                           **{k: v[idx] for k, v in params.items()}, **rec)
@@ -360,12 +456,11 @@ def sweep(family: SweepFamily, params: dict, points, out=None, chunk_size: int =
     return result
 
 
-def _gather(tree) -> dict:
+def _gather(tree):
     """A chunk's outputs as host NumPy arrays (from every process's devices)."""
     if jax.process_count() > 1:
-        return {k: np.asarray(v) for k, v in
-                multihost_utils.process_allgather(tree, tiled=True).items()}
-    return {k: np.asarray(v) for k, v in tree.items()}
+        tree = multihost_utils.process_allgather(tree, tiled=True)
+    return jax.tree_util.tree_map(np.asarray, tree)
 
 
 def _concatenate(chunks):

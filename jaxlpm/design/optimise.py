@@ -48,7 +48,7 @@ import optax
 from tqdm import tqdm
 
 from ..batch.store import _canonical, save_npz_atomic, write_json_atomic
-from ..batch.sweep import map_in_groups
+from ..batch.mapping import map_in_groups
 from ..nlp.newton import NewtonOptions
 from ..nlp.transcription import state_s, state_tau
 from ..problems import EnergyOptimalTransfer
