@@ -1,5 +1,5 @@
-"""Batched mesh refinement (`jaxlpm.batch.refine.refine_batch`) of the fuel-optimal and
-minimum-time families (issue 19 item 4; the energy-optimal family's is in test_accuracy.py):
+"""Batched mesh refinement (`jaxlpm.batch.refine.refine_batch`) of the fuel-optimal,
+minimum-time and LQR families (issue 19 item 4; the energy-optimal family's is in test_accuracy.py):
 each member climbs the same ladder as its single solve (`solve(problem)` without a grid) and
 ends on the same rung with the same cost, the members that need no refinement stop on the
 first rung, and the fuel-optimal gradients are taken on each member's final mesh."""
@@ -97,7 +97,33 @@ def test_bad_requests():
         refine_batch(stack([min_time(0.3)]), gradients=True)
     with pytest.raises(ValueError, match="leading member axis"):
         refine_batch(min_time(0.3))
-    Q, R = jiang2011.weights()
-    lqr = lpm.LQRTransfer(jiang2011.chief(), jiang2011.initial_state(), 3000.0, Q, R)
     with pytest.raises(ValueError, match="refine_batch refines"):
-        refine_batch(lqr)
+        refine_batch(ORBIT)
+    with pytest.raises(ValueError, match="takes no options"):
+        refine_batch(stack([lqr(*jiang2011.weights())]), options=lpm.NewtonOptions())
+
+
+def lqr(Q, R):
+    """jiang2011's chief and chaser over one period, terminal weight zero."""
+    return lpm.LQRTransfer(jiang2011.chief(), jiang2011.initial_state(),
+                           2.0 * np.pi / jiang2011.mean_motion(), Q, R, terminal="weight")
+
+
+def test_lqr_members_double_their_steps_where_they_must():
+    """jiang2011's weights resolve the closed loop on 512 sweep steps; Q = I, R = I in SI
+    (closed-loop rates ~900 n) need 1024 (tests/test_riccati.py). Each member ends on the step
+    count and cost of its single solve (the same sweep: 1e-12), and its gradient d cost/d x0,
+    taken on its final steps, is P(0) x0 (the cost is 1/2 x0^T P(0) x0 with S_T = 0) up to
+    the cost's quadrature error against that form (measured 2e-14 and 6e-8: the Q = I
+    control varies 900 times faster than the orbit)."""
+    members = [lqr(*jiang2011.weights()), lqr(np.eye(6), np.eye(3))]
+    out = refine_batch(stack(members), gradients=True)
+    assert np.all(out["status"] == Status.SUCCESS)
+    np.testing.assert_array_equal(out["rung"], [0, 1])
+    np.testing.assert_array_equal(out["segments"], [512, 1024])
+    for i, problem in enumerate(members):
+        single = lpm.solve(problem)
+        assert out["segments"][i] == int(single.stats["steps"])
+        assert abs(out["cost"][i] - float(single.cost)) <= 1e-12 * float(single.cost)
+        g = np.asarray(single.stats["P0"]) @ np.asarray(problem.x0)
+        np.testing.assert_allclose(out["dcost_dx0"][i], g, rtol=0, atol=1e-6 * np.abs(g).max())

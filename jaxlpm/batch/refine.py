@@ -1,9 +1,11 @@
-"""Batched mesh refinement (`jaxlpm.solvers.refine`) of energy-optimal, fuel-optimal and
-minimum-time transfers: every member is solved on the ladder's first rung; only the members
-that come out INACCURATE go on to the next rung, each on its own breaks, and, where the family
-warm-starts, from its own previous solution. A rung's mesh shape is fixed, its breaks an array
-leaf, so each rung is one compiled function whatever the members and breaks (`lax.map` over
-groups of `width` members).
+"""Batched mesh refinement (`jaxlpm.solvers.refine`) of energy-optimal, fuel-optimal,
+minimum-time and LQR transfers: every member is solved on the ladder's first rung; only the
+members that come out INACCURATE go on to the next rung, each on its own breaks, and, where the
+family warm-starts, from its own previous solution. A rung's mesh shape is fixed, its breaks an
+array leaf, and every rung runs over all the batch's rows, the members already done skipped by
+a `lax.cond` (`masked`), so each rung is one compiled function whatever the members and breaks
+(`lax.map` over groups of `width` members). The sweep engine's "refine" group
+(`jaxlpm.batch.sweep`) climbs each chunk the same way (`climb`).
 
 Where each family puts the next rung's breaks, as its single solve does (`solve(problem)`
 without a grid):
@@ -16,6 +18,8 @@ without a grid):
   minimum time     method "condensed" (every model): uniform meshes; method
                    "augmented-lagrangian" (HCW): split by the error, each rung from its own
                    minimum-time guess (`MinTimePlan`)
+  LQR              the Riccati sweep's uniform steps doubled, 512 to 4096 (rungs (steps, 1);
+                   no breaks, no warm start: `LQRPlan`)
 """
 
 import dataclasses
@@ -32,12 +36,12 @@ from ..collocation.segments import (LGRMesh, SegmentedMesh, aligned_breaks, lgr_
 from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.homotopy import HomotopyOptions
 from ..nlp.newton import NewtonOptions
-from ..problems import EnergyOptimalTransfer, MinimumTimeTransfer
+from ..problems import EnergyOptimalTransfer, LQRTransfer, MinimumTimeTransfer
 from ..problems.fuel_optimal import FuelOptimalTransfer
 from ..problems.energy_optimal import scaled_rows
 from ..solution import DEFAULT_TOLERANCE, Tolerance, judge
 from ..solution.accuracy import refinement_error
-from ..solvers import fuel_optimal, min_time, min_time_condensed
+from ..solvers import fuel_optimal, lqr, min_time, min_time_condensed
 from ..solvers.energy_optimal import rung_options
 from ..solvers.fuel_constrained import FuelALOptions
 from ..solvers.min_time_condensed import CondensedOptions
@@ -189,6 +193,33 @@ class MinTimePlan:
         return dict(breaks=breaks, error=refinement_error(solution.stats, tolerance))
 
 
+@dataclass(frozen=True)
+class LQRPlan:
+    """LQR transfers: the Riccati sweep on rungs of (steps, 1), the uniform steps doubled as
+    its single solve doubles them (`lqr.refine_steps`; each step a segment whose flow is
+    exact, so no breaks to place and nothing to warm-start)."""
+
+    ladder: MeshLadder = MeshLadder(tuple((steps, 1) for steps in lqr.REFINE_STEPS))
+    options: None = None
+    warm_start = False
+    method = "riccati"
+
+    def rung_options(self, shape):
+        return None
+
+    def first_breaks(self, k):
+        return np.zeros(0)
+
+    def next_breaks(self, carry, k, previous):
+        return np.zeros(0)
+
+    def solve(self, problem, breaks, prev, shape, previous, options):
+        return lqr.run(problem, shape[0], self.method, options)
+
+    def carry(self, solution, breaks, tolerance):
+        return {}
+
+
 def refinement_plan(problems, ladder=None, options=None):
     """The plan (`EnergyPlan`, `FuelPlan`, `MinTimePlan`) of a batch of `problems`, with the
     family's default ladder and options where they are None."""
@@ -212,8 +243,13 @@ def refinement_plan(problems, ladder=None, options=None):
                 tuple((k, min_time_condensed.DEFAULT_POINTS)
                       for k in min_time_condensed.REFINE_SEGMENTS)))
         return MinTimePlan(ladder, options)
-    raise ValueError(f"refine_batch refines EnergyOptimalTransfer, FuelOptimalTransfer and "
-                     f"MinimumTimeTransfer batches, got {type(problems).__name__}")
+    if isinstance(problems, LQRTransfer):
+        if options is not None:
+            raise ValueError(f"the Riccati sweep takes no options, got {options!r:.60}")
+        return LQRPlan() if ladder is None else LQRPlan(ladder)
+    raise ValueError(f"refine_batch refines EnergyOptimalTransfer, FuelOptimalTransfer, "
+                     f"MinimumTimeTransfer and LQRTransfer batches, got "
+                     f"{type(problems).__name__}")
 
 
 @dataclass(frozen=True)
@@ -221,7 +257,7 @@ class Refinement:
     """How a batch refines (`refine_batch`, and a sweep's "refine" group: `jaxlpm.batch.sweep`):
     ladder (None: the family's, `refinement_plan`), tolerance (`jaxlpm.Tolerance`, SI) and
     gradients (also the implicit gradient of the cost with respect to every leaf of the
-    problem, on each member's final mesh: `gradient_record`; energy- and fuel-optimal only)."""
+    problem, on each member's final mesh: `gradient_record`; every family but minimum time)."""
 
     ladder: MeshLadder | None = None
     tolerance: Tolerance = DEFAULT_TOLERANCE
@@ -340,20 +376,21 @@ def check_refinement(plan, refinement: Refinement):
 def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAULT_TOLERANCE,
                  options=None, record=accuracy_record, gradients: bool = False, width: int = 1,
                  log=None) -> dict:
-    """Refine a batch of `EnergyOptimalTransfer`s, `FuelOptimalTransfer`s or
-    `MinimumTimeTransfer`s (leading axis: members) rung by rung (module docstring).
+    """Refine a batch of `EnergyOptimalTransfer`s, `FuelOptimalTransfer`s,
+    `MinimumTimeTransfer`s or `LQRTransfer`s (leading axis: members) rung by rung (module
+    docstring).
 
     ladder: the rungs' mesh shapes (None: the family's, as its single solve climbs them:
     `DEFAULT_LADDER`; the fuel family's 24 x 8 uniform, then 3 aligned passes each of 24, 48
     and 96 segments of 8 points, with safety constraints 16 x 8 uniform, then 3 aligned
-    passes each of 16 and 24 segments; minimum time's `min_time.LADDER` on HCW, else 16, 32, 64 and
-    128 x 8). options: the solver's (None: the family's default). record(solution) -> dict of
+    passes each of 16 and 24 segments; minimum time's `min_time.LADDER` on HCW, else 16, 32,
+    64 and 128 x 8; LQR 512 to 4096 steps as (steps, 1)). options: the solver's (None: the family's default). record(solution) -> dict of
     arrays: what is kept of each member's final solution (the default: `accuracy_record`; it
     may fly the solution, `jaxlpm.verify.fly`). gradients: also the implicit gradient of the
     cost with respect to every leaf of the problem (`gradient_record`: dcost_dx0,
     dcost_dduration, dcost_dorbit.e, ...), taken on each member's final mesh (its breaks held
-    fixed); energy- and fuel-optimal only (a minimum-time solve is not differentiated).
-    Every rung runs on all members (one compiled function per rung for the batch's size), the
+    fixed); energy-optimal, fuel-optimal and LQR (a minimum-time solve is not
+    differentiated). Every rung runs on all members (one compiled function per rung for the batch's size), the
     members already done skipped by a `lax.cond` (`masked`). Returns the records as NumPy
     arrays (members first) plus "rung" (the rung each member ended on) and "segments" (its
     mesh's segment count)."""
