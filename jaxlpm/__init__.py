@@ -10,8 +10,8 @@ jax.config.update("jax_enable_x64", True).
 A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTransfer`,
 `MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`, `ImpulsiveIntercept`,
 `FiniteBurnIntercept`), optional safety constraints on an energy-optimal transfer
-(`KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `ThrustLimit`, `PassiveSafety`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`: k
-segments; `segmented_lgr`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
+(`KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `ThrustLimit`, `PassiveSafety`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`,
+`lg_mesh(k, n)`, `lgl_mesh(k, n)`: k segments; `segmented_lgr`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
 mesh refinement to the `Tolerance`; a solution that converged but misses it is INACCURATE),
 `verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `design` (mission parameters
 optimised under uncertainty by optax), `io` (save/load, CSV, CCSDS OEM), `lambert`, `Status`,
@@ -25,8 +25,9 @@ _cpu_runtime.apply()
 
 from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
-from .collocation.segments import (LGRMesh, SegmentedMesh, aligned_breaks,  # noqa: E402
-                                   lgr_mesh, segmented_lgr, uniform_breaks)
+from .collocation.segments import (LGLMesh, LGMesh, LGRMesh, Mesh, SegmentedMesh,  # noqa: E402
+                                   aligned_breaks, lg_mesh, lgl_mesh, lgr_mesh, make_mesh,
+                                   segmented_lgr, uniform_breaks)
 from .nlp import ALOptions, HomotopyOptions, NewtonOptions, OptimalControlProblem  # noqa: E402
 from .orbits import KeplerOrbit  # noqa: E402
 from .orbits.lambert import LambertSolution, lambert  # noqa: E402
@@ -52,7 +53,8 @@ __version__ = "0.2.0"
 """The package version."""
 
 __all__ = [
-    "DEFAULT_LADDER", "DEFAULT_TOLERANCE", "LGRMesh", "MeshLadder", "Tolerance", "lgr_mesh",
+    "DEFAULT_LADDER", "DEFAULT_TOLERANCE", "LGLMesh", "LGMesh", "LGRMesh", "Mesh", "MeshLadder",
+    "Tolerance", "lg_mesh", "lgl_mesh", "lgr_mesh", "make_mesh",
     "ALOptions", "ApproachCone", "CareSolution", "CondensedOptions", "EnergyOptimalTransfer", "FiniteBurnIntercept",
     "FiniteBurnOptions", "FuelALOptions", "FuelOptimalTransfer", "Grid", "HomotopyOptions",
     "ImpulsiveIntercept", "KeepOutEllipsoid", "KeplerOrbit", "LQRTransfer", "LambertSolution",

@@ -46,6 +46,33 @@ def test_lgr_mesh_operators_are_exact_on_piecewise_polynomials():
         lpm.lgr_mesh(2, 6, [-1.0, 1.0, 0.0])
 
 
+@pytest.mark.parametrize("scheme, degree, exact", [("LG", 6, 11), ("LGL", 5, 9)])
+def test_lg_and_lgl_mesh_operators_are_exact_on_piecewise_polynomials(scheme, degree, exact):
+    """lg_mesh(k, n): each segment's polynomial on its start break and n Gauss points (degree
+    n), Gauss weights exact to degree 2n - 1, and the quadrature rows E X = W X' (each
+    segment's end break from its start and the quadrature of the derivative); lgl_mesh(k, n):
+    degree n - 1 on the segment's n points (its breaks twice), weights exact to 2n - 3, the
+    linkage rows L X = 0 for a continuous function."""
+    mesh = lpm.make_mesh(scheme, 3, 6, [-1.0, -0.3, 0.4, 1.0])
+    x = mesh.state_tau
+    coefficients = 1.0 / (1.0 + np.arange(degree + 1))
+    p = np.polynomial.Polynomial(coefficients)
+    np.testing.assert_allclose(mesh.D @ p(x), p.deriv()(mesh.points), atol=1e-11)
+    t = mesh.points
+    assert float(mesh.weights @ t**exact) == pytest.approx(
+        (1.0 - (-1.0) ** (exact + 1)) / (exact + 1), abs=1e-13)
+    for tau in (-1.0, -0.31, 0.0, 0.4, 0.77, 1.0):
+        assert float(mesh.interpolate_state(p(x), tau)) == pytest.approx(float(p(tau)),
+                                                                         abs=1e-12)
+    if scheme == "LG":
+        E, W = mesh.quadrature
+        np.testing.assert_allclose(E @ p(x), W @ p.deriv()(t), atol=1e-12)
+        assert mesh.n_rows == 3 * 7 + 1 and mesh.linkage is None
+    else:
+        np.testing.assert_allclose(mesh.linkage @ p(x), 0.0, atol=1e-14)
+        assert mesh.n_rows == 3 * 6 and mesh.quadrature is None
+
+
 def test_split_breaks_puts_the_pieces_where_the_error_is():
     b = split_breaks([-1.0, 0.0, 1.0], [1e-12, 1e-4], 8)
     assert b.size == 9 and b[0] == -1.0 and b[-1] == 1.0 and np.all(np.diff(b) > 0)

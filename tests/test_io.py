@@ -79,6 +79,9 @@ FAMILIES = {
     "energy-lgl": _energy_lgl,
     "energy-lgr-mesh": lambda: lpm.solve(energy(), lpm.lgr_mesh(2, 6), method="newton",
                                          throw=False),
+    # an LGL mesh: its breaks are state rows of both segments (issue 19)
+    "energy-lgl-mesh": lambda: lpm.solve(energy(), lpm.lgl_mesh(2, 6), method="newton",
+                                         throw=False),
     "min-time": lambda: lpm.solve(lpm.MinimumTimeTransfer(
         CIRCULAR, jnp.zeros(6), jnp.array([5.0, 30.0, -3.0, 0.02, 0.5, 0.01]), 1.0, 200.0),
         lpm.lg(8), throw=False),

@@ -31,8 +31,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..collocation import lgr
-from ..collocation.segments import (LGRMesh, SegmentedMesh, aligned_breaks, lgr_mesh,
-                                    uniform_breaks)
+from ..collocation.segments import (MESHES, LGRMesh, SegmentedMesh, aligned_breaks,
+                                    lgr_mesh, uniform_breaks)
 from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.homotopy import HomotopyOptions
 from ..nlp.newton import NewtonOptions
@@ -78,7 +78,8 @@ def gradient_record(gradient) -> dict:
 @dataclass(frozen=True)
 class EnergyPlan:
     """Energy-optimal transfers: Newton-KKT (or the augmented Lagrangian with safety
-    constraints) on `LGRMesh` rungs, split by `refinement_error`, warm-started."""
+    constraints) on the ladder's meshes (`LGRMesh`; `LGMesh`, `LGLMesh` by its scheme),
+    split by `refinement_error`, warm-started."""
 
     ladder: MeshLadder = DEFAULT_LADDER
     options: NewtonOptions | ALOptions = NewtonOptions()
@@ -92,17 +93,22 @@ class EnergyPlan:
         return rung_options(self.options, shape[0])
 
     def first_breaks(self, k):
-        return np.asarray(lgr_mesh(k, 2).breaks)
+        return uniform_breaks(-1.0, 1.0, k)
 
     def next_breaks(self, carry, k, previous):
         return split_breaks(carry["breaks"], carry["error"], k)
 
+    def _mesh(self, breaks, n):
+        """The ladder's scheme's mesh (traced breaks: no host checks)."""
+        cls, grid = MESHES[self.ladder.scheme]
+        return cls(breaks, grid(n))
+
     def solve(self, problem, breaks, prev, shape, previous, options):
-        mesh = LGRMesh(breaks, lgr(shape[1]))
+        mesh = self._mesh(breaks, shape[1])
         if previous is None:
             return newton_transfer(problem, mesh, options)
-        X, U = interpolated_guess(prev["X"], prev["U"],
-                                  LGRMesh(prev["breaks"], lgr(previous[1])), mesh)
+        X, U = interpolated_guess(prev["X"], prev["U"], self._mesh(prev["breaks"], previous[1]),
+                                  mesh)
         return newton_transfer(problem, mesh, options,
                                z0=jnp.concatenate([X.reshape(-1), U.reshape(-1)]))
 
@@ -221,8 +227,13 @@ class LQRPlan:
 
 
 def refinement_plan(problems, ladder=None, options=None):
-    """The plan (`EnergyPlan`, `FuelPlan`, `MinTimePlan`) of a batch of `problems`, with the
-    family's default ladder and options where they are None."""
+    """The plan (`EnergyPlan`, `FuelPlan`, `MinTimePlan`, `LQRPlan`) of a batch of
+    `problems`, with the family's default ladder and options where they are None. A ladder on
+    LG or LGL meshes is the energy-optimal family's alone (ValueError otherwise)."""
+    if (ladder is not None and ladder.scheme != "LGR"
+            and not isinstance(problems, EnergyOptimalTransfer)):
+        raise ValueError(f"a MeshLadder on {ladder.scheme} meshes refines energy-optimal "
+                         f"transfers; the {type(problems).__name__} family refines on LGR")
     if isinstance(problems, EnergyOptimalTransfer):
         if options is None:
             options = ALOptions() if problems.constraints else NewtonOptions()
@@ -381,19 +392,19 @@ def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAUL
     docstring).
 
     ladder: the rungs' mesh shapes (None: the family's, as its single solve climbs them:
-    `DEFAULT_LADDER`; the fuel family's 24 x 8 uniform, then 3 aligned passes each of 24, 48
-    and 96 segments of 8 points, with safety constraints 16 x 8 uniform, then 3 aligned
-    passes each of 16 and 24 segments; minimum time's `min_time.LADDER` on HCW, else 16, 32,
-    64 and 128 x 8; LQR 512 to 4096 steps as (steps, 1)). options: the solver's (None: the family's default). record(solution) -> dict of
-    arrays: what is kept of each member's final solution (the default: `accuracy_record`; it
-    may fly the solution, `jaxlpm.verify.fly`). gradients: also the implicit gradient of the
-    cost with respect to every leaf of the problem (`gradient_record`: dcost_dx0,
-    dcost_dduration, dcost_dorbit.e, ...), taken on each member's final mesh (its breaks held
-    fixed); energy-optimal, fuel-optimal and LQR (a minimum-time solve is not
-    differentiated). Every rung runs on all members (one compiled function per rung for the batch's size), the
-    members already done skipped by a `lax.cond` (`masked`). Returns the records as NumPy
-    arrays (members first) plus "rung" (the rung each member ended on) and "segments" (its
-    mesh's segment count)."""
+    `DEFAULT_LADDER`; the fuel family's 24 x 8 uniform, then 3 aligned passes each of 24, 48 and
+    96 segments of 8 points, with safety constraints 16 x 8 uniform, then 3 aligned passes each
+    of 16 and 24 segments; minimum time's `min_time.LADDER` on HCW, else 16, 32, 64 and 128 x 8;
+    LQR 512 to 4096 steps as (steps, 1)). options: the solver's (None: the family's default).
+    record(solution) -> dict of arrays: what is kept of each member's final solution (the
+    default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`). gradients: also
+    the implicit gradient of the cost with respect to every leaf of the problem
+    (`gradient_record`: dcost_dx0, dcost_dduration, dcost_dorbit.e, ...), taken on each member's
+    final mesh (its breaks held fixed); energy-optimal, fuel-optimal and LQR (a minimum-time
+    solve is not differentiated). Every rung runs on all members (one compiled function per rung
+    for the batch's size), the members already done skipped by a `lax.cond` (`masked`). Returns
+    the records as NumPy arrays (members first) plus "rung" (the rung each member ended on) and
+    "segments" (its mesh's segment count)."""
     refinement = Refinement(ladder, tolerance, gradients)
     plan = refinement_plan(problems, ladder, options)
     check_refinement(plan, refinement)

@@ -1,13 +1,16 @@
-"""Multi-interval (segmented) Legendre-Gauss-Radau meshes (Garg et al. 2010, "A unified
-framework for the numerical solution of optimal control problems using pseudospectral
-methods", Automatica 46, §4; the hp meshes of Darby, Hager & Rao 2011).
+"""Multi-interval (segmented) meshes: the segmented LGR mesh of the fuel-optimal and
+minimum-time families (`SegmentedMesh`, breaks as fractions of [s0, sf]) and the meshes of the
+general transcription on tau in [-1, 1] (`LGRMesh`, `LGMesh`, `LGLMesh`: `Mesh`) (Garg et
+al. 2010, "A unified framework for the numerical solution of optimal control problems using
+pseudospectral methods", Automatica 46, §4; the hp meshes of Darby, Hager & Rao 2011).
 
-The interval [s0, sf] is cut at breaks s0 = b_0 < b_1 < ... < b_K = sf; segment k carries the
-same LGR grid (n points, tau = -1 included, +1 not collocated) mapped onto [b_k, b_{k+1}]:
-s = b_k + h_k (tau + 1), h_k = (b_{k+1} - b_k) / 2. The state polynomial of segment k lives on
-its n points and b_{k+1}; b_{k+1} is also the first point of segment k + 1, so the state is
-continuous across segments by construction. A control (and a bang-bang switch) may jump at a
-break: breaks placed at the switching times let each segment hold one smooth arc.
+The interval is cut at breaks b_0 < b_1 < ... < b_K; segment k carries the same grid (n
+points) mapped onto [b_k, b_{k+1}]: s = b_k + h_k (tau + 1), h_k = (b_{k+1} - b_k) / 2. On
+LGR (tau = -1 included, +1 not collocated) the state polynomial of segment k lives on its n
+points and b_{k+1}, which is also the first point of segment k + 1, so the state is continuous
+across segments by construction; LG and LGL meshes join their segments as `LGMesh` and
+`LGLMesh` say. A control (and a bang-bang switch) may jump at a break: breaks placed at the
+switching times let each segment hold one smooth arc.
 
 The breaks are an array leaf (moving them does not recompile); K and n are static through the
 shapes. `aligned_breaks` (host side, NumPy) builds a mesh with breaks at given switching times.
@@ -19,7 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .grid import Grid, lgr
+from .grid import Grid, lg, lgl, lgr
 
 
 @jax.tree_util.register_dataclass
@@ -105,29 +108,34 @@ def aligned_breaks(s0: float, sf: float, k: int, switches, min_gap: float = 1e-6
     return np.concatenate(pieces + [[sf]])
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
-class LGRMesh:
-    """K segments of one LGR grid on tau in [-1, 1], seen as one grid (the hp meshes of
-    Darby, Hager & Rao 2011 and Patterson, Hager & Rao 2015, in the form of Garg et al. 2010's
-    multi-interval Radau method).
+class Mesh:
+    """K segments of one grid on tau in [-1, 1], seen as one grid (the hp meshes of Darby,
+    Hager & Rao 2011 and Patterson, Hager & Rao 2015; the multi-interval Radau and Gauss
+    methods of Garg et al. 2010, and LGL segments joined by linkage conditions, Fahroo & Ross
+    2001's knotting): `LGRMesh`, `LGMesh`, `LGLMesh`.
 
-    It has the attributes of an LGR `Grid` that the transcription reads (`scheme` "LGR",
-    `n` = K n_k collocation points, `points`, `weights`, `support`, `D`), so every solver of
-    `jaxlpm.nlp` runs on it unchanged: segment k's n_k Radau points (its start collocated)
-    and its end, which is the next segment's first point (the state is continuous by
-    construction), give the state rows [points, +1]; D is block bidiagonal, segment k's rows
-    the LGR matrix times 2 / (b_{k+1} - b_k) on its n_k + 1 rows; weights are the LGR weights
-    times (b_{k+1} - b_k) / 2. A control may jump at a break.
+    It has the attributes of a `Grid` that the transcription reads (`scheme`, `n` = K n_k
+    collocation points, `points`, `weights`, `D`, `support`) and the layout of its state rows
+    (`jaxlpm.nlp.transcription`): `n_rows`, `state_tau`, `collocated` (the rows at the
+    collocation points), `quadrature` (LG: one Gauss-quadrature row per segment) and
+    `linkage` (LGL: state continuity at each interior break). D is (K n_k, n_rows), segment
+    k's rows the segment grid's matrix times 2 / (b_{k+1} - b_k) on its polynomial's rows;
+    weights are the segment's times (b_{k+1} - b_k) / 2. A control may jump at a break.
 
     breaks   (K + 1,) increasing tau in [-1, 1] (an array leaf: moving them recompiles
-             nothing); segment: `lgr(n_k)` (static). Build with `lgr_mesh`.
+             nothing); segment: the segment grid (static). Build with `lgr_mesh`, `lg_mesh`,
+             `lgl_mesh` (or `make_mesh`).
     """
 
     breaks: jax.Array
     segment: Grid
 
-    scheme = "LGR"
+    # per scheme: state rows per segment before the next segment's first row (`_stride`),
+    # the segment's first collocated row within them (`_offset`), rows after the last
+    # segment's (`_tail`)
+    _stride_extra = 0
+    _offset = 0
+    _tail = 1
 
     @property
     def n_segments(self) -> int:
@@ -141,14 +149,29 @@ class LGRMesh:
     def _half(self):
         return 0.5 * jnp.diff(self.breaks, axis=-1)                      # (..., K)
 
-    # points, weights and support also take a batch of meshes (breaks (..., K + 1)), as a
-    # batched solution holds them
+    @property
+    def _stride(self) -> int:
+        return self.segment.n + self._stride_extra
+
+    @property
+    def _support_length(self) -> int:
+        """Rows of one segment's state polynomial."""
+        return self.segment.support.shape[0]
+
+    @property
+    def n_rows(self) -> int:
+        return self.n_segments * self._stride + self._tail
+
+    # points, weights and the tau of the rows also take a batch of meshes (breaks
+    # (..., K + 1)), as a batched solution holds them
+    def _mapped(self, tau):
+        """Segment-local tau (n_k,) on every segment: (..., K, n_k)."""
+        return self.breaks[..., :-1, None] + self._half[..., None] * (jnp.asarray(tau) + 1.0)
+
     @property
     def points(self):
         """tau of the K n_k collocation points, segment by segment."""
-        g = self.segment
-        tau = (self.breaks[..., :-1, None]
-               + self._half[..., None] * (jnp.asarray(g.points) + 1.0))
+        tau = self._mapped(self.segment.points)
         return tau.reshape(*tau.shape[:-2], -1)
 
     @property
@@ -157,18 +180,40 @@ class LGRMesh:
         return w.reshape(*w.shape[:-2], -1)
 
     @property
+    def state_tau(self):
+        """tau of the `n_rows` state rows: each segment's first `_stride` support rows, then
+        the final break where the layout has a tail."""
+        tau = self._mapped(self.segment.support)[..., :self._stride]
+        tau = tau.reshape(*tau.shape[:-2], -1)
+        return (jnp.concatenate([tau, self.breaks[..., -1:]], axis=-1) if self._tail
+                else tau)
+
+    @property
     def support(self):
-        """tau of the K n_k + 1 state rows."""
-        return jnp.concatenate([self.points, self.breaks[..., -1:]], axis=-1)
+        """tau of the rows the state polynomials live on: every state row."""
+        return self.state_tau
+
+    @property
+    def collocated(self):
+        """The state rows at the collocation points: a slice where they are contiguous, else
+        an index array (K n_k,)."""
+        if self._stride == self.segment.n and self._offset == 0:
+            return slice(0, self.n)
+        seg, i = np.meshgrid(np.arange(self.n_segments), np.arange(self.segment.n),
+                             indexing="ij")
+        return (seg * self._stride + self._offset + i).reshape(-1)
 
     @property
     def D(self):
-        """(K n_k, K n_k + 1) block bidiagonal differentiation matrix in tau."""
-        k, m = self.n_segments, self.segment.n
-        seg, i, j = np.meshgrid(np.arange(k), np.arange(m), np.arange(m + 1), indexing="ij")
+        """(K n_k, n_rows) block differentiation matrix in tau."""
+        k, m, p = self.n_segments, self.segment.n, self._support_length
+        seg, i, j = np.meshgrid(np.arange(k), np.arange(m), np.arange(p), indexing="ij")
         values = jnp.asarray(self.segment.D)[None] / self._half[:, None, None]
-        return jnp.zeros((k * m, k * m + 1), values.dtype).at[
-            seg * m + i, seg * m + j].set(values)
+        return jnp.zeros((k * m, self.n_rows), values.dtype).at[
+            seg * m + i, seg * self._stride + j].set(values)
+
+    quadrature = None      # (E (q, n_rows), W (q, n)) for LG: E X - h W F = 0
+    linkage = None         # L (p, n_rows) for LGL: L X = 0
 
     def locate(self, tau):
         """(segment index k, local tau in [-1, 1]) of a scalar tau (a break belongs to the
@@ -178,12 +223,11 @@ class LGRMesh:
         return k, (tau - self.breaks[k]) / self._half[k] - 1.0
 
     def interpolate_state(self, values, tau):
-        """State interpolant at scalar tau: values (K n_k + 1, ...) on `support`, segment k's
-        polynomial on its n_k + 1 rows."""
+        """State interpolant at scalar tau: values (n_rows, ...) on `support`, segment k's
+        polynomial on its rows."""
         k, local = self.locate(tau)
-        g = self.segment
-        rows = jax.lax.dynamic_slice_in_dim(values, k * g.n, g.n + 1)
-        return g.interpolate_state(rows, local)
+        rows = jax.lax.dynamic_slice_in_dim(values, k * self._stride, self._support_length)
+        return self.segment.interpolate_state(rows, local)
 
     def interpolate_control(self, values, tau):
         """Control interpolant at scalar tau: values (K n_k, ...), segment k's n_k points."""
@@ -193,15 +237,108 @@ class LGRMesh:
         return g.interpolate_control(rows, local)
 
 
-def lgr_mesh(k: int, n: int, breaks=None) -> LGRMesh:
-    """`LGRMesh` of k segments of lgr(n) on tau in [-1, 1]: breaks (k + 1 increasing values
-    from -1 to 1) or, by default, k equal segments."""
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class LGRMesh(Mesh):
+    """K segments of `lgr(n_k)` (Garg et al. 2010's multi-interval Radau method): segment k's
+    n_k Radau points (its start collocated) and its end, which is the next segment's first
+    point, give the state rows [points, +1]: the state is continuous by construction, and D
+    is block bidiagonal (`Mesh`)."""
+
+    breaks: jax.Array
+    segment: Grid
+
+    scheme = "LGR"
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class LGMesh(Mesh):
+    """K segments of `lg(n_k)` (Garg et al. 2010's multi-interval Gauss method): the state rows
+    are each break and the segment's Gauss points after it, then the final break, [b_0, G_1,
+    b_1, G_2, ..., G_K, b_K]; segment k's polynomial lives on [b_k, G_k] and its end break is
+    tied to it by the Gauss quadrature of the dynamics, X(b_{k+1}) = X(b_k) + h_k sum_i w_i F_i
+    (`quadrature`, one row per segment), so the state is continuous by construction."""
+
+    breaks: jax.Array
+    segment: Grid
+
+    scheme = "LG"
+    _stride_extra = 1
+    _offset = 1
+
+    @property
+    def quadrature(self):
+        """(E (K, n_rows), W (K, K n_k)): row k of E X - h W F is X(b_{k+1}) - X(b_k) - h_k
+        sum_i w_i F_i (W holds each segment's `weights` on its own points)."""
+        k, m = self.n_segments, self.segment.n
+        seg = np.arange(k)
+        E = np.zeros((k, self.n_rows))
+        E[seg, seg * self._stride] = -1.0
+        E[seg, (seg + 1) * self._stride] = 1.0
+        W = jnp.zeros((k, k * m), self.breaks.dtype).at[
+            np.repeat(seg, m), np.arange(k * m)].set(self.weights)
+        return jnp.asarray(E), W
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class LGLMesh(Mesh):
+    """K segments of `lgl(n_k)`, every point collocated (Fahroo & Ross 2001 on each segment):
+    a break is a state row of both segments it joins (the rows are the K n_k points, the break
+    twice), and the two are tied by the linkage condition X(b_k^-) = X(b_k^+) (`linkage`); the
+    control may jump there (Ross & Fahroo's pseudospectral knotting)."""
+
+    breaks: jax.Array
+    segment: Grid
+
+    scheme = "LGL"
+    _tail = 0
+
+    @property
+    def linkage(self):
+        """L (K - 1, n_rows): row k of L X is X(b_{k+1}^-) - X(b_{k+1}^+)."""
+        k, m = self.n_segments, self.segment.n
+        L = np.zeros((k - 1, self.n_rows))
+        seg = np.arange(k - 1)
+        L[seg, seg * m + m - 1] = 1.0
+        L[seg, (seg + 1) * m] = -1.0
+        return jnp.asarray(L)
+
+
+MESHES = {"LGR": (LGRMesh, lgr), "LG": (LGMesh, lg), "LGL": (LGLMesh, lgl)}
+
+
+def make_mesh(scheme: str, k: int, n: int, breaks=None) -> Mesh:
+    """A `Mesh` of k segments of the scheme's grid with n points each ("LGR": `LGRMesh`,
+    "LG": `LGMesh`, "LGL": `LGLMesh`) on tau in [-1, 1]: breaks (k + 1 increasing values from
+    -1 to 1) or, by default, k equal segments."""
+    if scheme not in MESHES:
+        raise ValueError(f"scheme must be one of {sorted(MESHES)}, got {scheme!r}")
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise ValueError(f"the number of segments must be a positive integer, got {k!r}")
     b = uniform_breaks(-1.0, 1.0, k) if breaks is None else np.asarray(breaks, np.float64)
     if b.shape != (k + 1,) or not np.all(np.isfinite(b)) or not np.all(np.diff(b) > 0.0) \
             or b[0] != -1.0 or b[-1] != 1.0:
         raise ValueError(f"breaks must be {k + 1} strictly increasing values from -1 to 1, "
                          f"got {b}")
-    return LGRMesh(breaks=jnp.asarray(b), segment=lgr(n))
+    cls, grid = MESHES[scheme]
+    return cls(breaks=jnp.asarray(b), segment=grid(n))
+
+
+def lg_mesh(k: int, n: int, breaks=None) -> LGMesh:
+    """`LGMesh` of k segments of lg(n) on tau in [-1, 1] (`make_mesh`)."""
+    return make_mesh("LG", k, n, breaks)
+
+
+def lgl_mesh(k: int, n: int, breaks=None) -> LGLMesh:
+    """`LGLMesh` of k segments of lgl(n) on tau in [-1, 1] (`make_mesh`)."""
+    return make_mesh("LGL", k, n, breaks)
+
+
+def lgr_mesh(k: int, n: int, breaks=None) -> LGRMesh:
+    """`LGRMesh` of k segments of lgr(n) on tau in [-1, 1] (`make_mesh`)."""
+    return make_mesh("LGR", k, n, breaks)
 
 
 def as_segmented(mesh):

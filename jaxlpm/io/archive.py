@@ -25,7 +25,7 @@ import numpy as np
 
 from .._validation import require_x64
 from ..collocation import Grid
-from ..collocation.segments import LGRMesh, SegmentedMesh
+from ..collocation.segments import Mesh, SegmentedMesh
 from ..solution import Solution
 from ..status import Status
 from .tree import decode, encode
@@ -46,8 +46,8 @@ def _grid(grid):
     """The grid or mesh in words (JSON)."""
     if isinstance(grid, Grid):
         return {"scheme": grid.scheme, "points": grid.n}
-    if isinstance(grid, (LGRMesh, SegmentedMesh)):
-        inner = grid.segment if isinstance(grid, LGRMesh) else grid.grid
+    if isinstance(grid, (Mesh, SegmentedMesh)):
+        inner = grid.segment if isinstance(grid, Mesh) else grid.grid
         breaks = np.asarray(grid.breaks)
         return {"mesh": type(grid).__name__, "segments": breaks.shape[-1] - 1,
                 "points_per_segment": inner.n,

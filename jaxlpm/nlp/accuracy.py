@@ -41,7 +41,7 @@ import jax
 import jax.numpy as jnp
 
 from ..collocation import Grid
-from ..collocation.segments import LGRMesh, lgr_mesh
+from ..collocation.segments import LGRMesh, Mesh, lgr_mesh
 from ..linalg import dense_solve
 from .transcription import support_rows
 
@@ -62,11 +62,11 @@ def check_pieces(n: int) -> int:
 
 
 def _segments(grid):
-    """(breaks, points per segment) of a `Grid` (one segment [-1, 1]) or an `LGRMesh`."""
-    if isinstance(grid, LGRMesh):
+    """(breaks, points per segment) of a `Grid` (one segment [-1, 1]) or a `Mesh`."""
+    if isinstance(grid, Mesh):
         return grid.breaks, grid.segment.n
     if not isinstance(grid, Grid):
-        raise ValueError(f"grid must be a Grid or an LGRMesh, got {type(grid).__name__}")
+        raise ValueError(f"grid must be a Grid or a Mesh, got {type(grid).__name__}")
     return jnp.array([-1.0, 1.0]), grid.n
 
 
@@ -141,7 +141,7 @@ def _rates(ocp, Y, s, U, data):
 def collocation_defects(ocp_check, check: LGRMesh, grid, X, U, sf=None,
                         control_map=None) -> Defects:
     """The estimate of the module docstring for the solution with state rows X and controls U
-    on `grid` (a `Grid` or `LGRMesh`), the problem `ocp_check` built on the check mesh
+    on `grid` (a `Grid` or a `Mesh`), the problem `ocp_check` built on the check mesh
     `check` (`check_mesh(grid)`, so its node data sit at the check points); sf: the final s
     (a free final s), default ocp_check.sf; control_map: applied to the interpolated control
     (e.g. its direction, for a constant-magnitude engine), None: as it is."""

@@ -37,6 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..collocation.segments import LGLMesh, LGMesh
 from ..linalg import cholesky_solve, complete_qr, small_triangular_solve
 from .transcription import (collocated_rows, equality, lagrangian, n_state_rows,
                                       n_variables, objective, point_hessians,
@@ -73,6 +74,9 @@ class CondensedSecondOrder:
     the dd/dx terms to the controls' rows of T."""
 
     def __init__(self, ocp, grid, z_ref=None):
+        if isinstance(grid, (LGMesh, LGLMesh)):
+            raise ValueError("the condensed solve takes single grids and LGR meshes; an LG or "
+                             "LGL mesh's quadrature and linkage rows take the dense one")
         self.ocp, self.grid = ocp, grid
         self.n_rows = n_state_rows(grid)
         self.free = bool(ocp.free_final)

@@ -20,17 +20,24 @@ at every node (Fahroo & Ross 2001 need a closure condition at the end points).
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
+from ..collocation.segments import Mesh
 from .ocp import OptimalControlProblem
 
 
 def n_state_rows(grid) -> int:
-    """Number of state rows in z for the grid's scheme."""
+    """Number of state rows in z for the grid's scheme (a `Mesh`: its `n_rows`)."""
+    if isinstance(grid, Mesh):
+        return grid.n_rows
     return grid.n + {"LGL": 0, "LG": 2, "LGR": 1}[grid.scheme]
 
 
 def state_tau(grid):
-    """tau of the state rows: LGL points; LG [-1, points, 1]; LGR [points, 1]."""
+    """tau of the state rows: LGL points; LG [-1, points, 1]; LGR [points, 1]; a `Mesh`'s
+    `state_tau`."""
+    if isinstance(grid, Mesh):
+        return grid.state_tau
     one = jnp.ones(1, grid.points.dtype)
     if grid.scheme == "LGL":
         return grid.points
@@ -40,13 +47,42 @@ def state_tau(grid):
 
 
 def collocated_rows(grid):
-    """Slice of the state rows at the collocation points."""
+    """The state rows at the collocation points: a slice, or a `Mesh`'s index array."""
+    if isinstance(grid, Mesh):
+        return grid.collocated
     return {"LGL": slice(None), "LG": slice(1, -1), "LGR": slice(None, -1)}[grid.scheme]
 
 
 def support_rows(grid):
-    """Slice of the state rows on which the state polynomial (and D) is defined."""
+    """Slice of the state rows on which the state polynomial (and D) is defined (a `Mesh`:
+    every row)."""
+    if isinstance(grid, Mesh):
+        return slice(None)
     return {"LGL": slice(None), "LG": slice(None, -1), "LGR": slice(None)}[grid.scheme]
+
+
+def quadrature_rows(grid):
+    """(E (q, rows), W (q, n)) of the Gauss quadrature conditions E X - h W F = 0: LG's
+    X_f - X_0 - h sum_k w_k F_k, one per segment of an `LGMesh`; None for LGL and LGR."""
+    if isinstance(grid, Mesh):
+        return grid.quadrature
+    if grid.scheme != "LG":
+        return None
+    E = jnp.zeros((1, grid.n + 2), grid.points.dtype).at[0, 0].set(-1.0).at[0, -1].set(1.0)
+    return E, jnp.asarray(grid.weights)[None]
+
+
+def linkage_rows(grid):
+    """L (p, rows) of the linkage conditions L X = 0 (an `LGLMesh`'s state continuity at its
+    interior breaks), or None."""
+    return grid.linkage if isinstance(grid, Mesh) else None
+
+
+def n_extra_rows(grid) -> int:
+    """Equality rows between the collocation defects and the boundary residuals, per state
+    component: the quadrature rows and the linkage rows."""
+    quad, link = quadrature_rows(grid), linkage_rows(grid)
+    return (0 if quad is None else quad[0].shape[0]) + (0 if link is None else link.shape[0])
 
 
 def n_variables(ocp: OptimalControlProblem, grid) -> int:
@@ -141,15 +177,19 @@ def path_values(z, ocp: OptimalControlProblem, grid):
 
 
 def defects(z, ocp: OptimalControlProblem, grid):
-    """Collocation defects D X - h F (n, n_x) and, for LG, the quadrature row (1, n_x)."""
+    """Collocation defects D X - h F (n, n_x), then the quadrature rows E X - h W F (LG: one
+    per segment) and the linkage rows L X (an `LGLMesh`'s interior breaks), (q + p, n_x)."""
     X, U, sf = unpack(z, ocp, grid)
     h = 0.5 * (sf - ocp.s0)
     F = _pointwise(ocp.dynamics, ocp, grid, X, U, sf)
-    rows = grid.D @ X[support_rows(grid)] - h * F
-    if grid.scheme == "LG":
-        quad = X[-1] - X[0] - h * (grid.weights @ F)
-        rows = jnp.concatenate([rows, quad[None]])
-    return rows
+    rows = [grid.D @ X[support_rows(grid)] - h * F]
+    quad, link = quadrature_rows(grid), linkage_rows(grid)
+    if quad is not None:
+        E, W = quad
+        rows.append(E @ X - h * (W @ F))
+    if link is not None:
+        rows.append(link @ X)
+    return jnp.concatenate(rows)
 
 
 def equality(z, ocp: OptimalControlProblem, grid):
@@ -168,9 +208,9 @@ def n_boundary(ocp: OptimalControlProblem, grid) -> int:
 
 def point_indices(ocp, grid):
     """(n, n_x + n_u) positions in z of each collocation point's (x_i, u_i)."""
-    first = {"LGL": 0, "LG": 1, "LGR": 0}[grid.scheme]
+    rows = np.arange(n_state_rows(grid))[collocated_rows(grid)]
     points = jnp.arange(grid.n)
-    xi = (points + first)[:, None] * ocp.n_x + jnp.arange(ocp.n_x)[None]
+    xi = jnp.asarray(rows)[:, None] * ocp.n_x + jnp.arange(ocp.n_x)[None]
     ui = (n_state_rows(grid) * ocp.n_x + points[:, None] * ocp.n_u
           + jnp.arange(ocp.n_u)[None])
     return jnp.concatenate([xi, ui], axis=1)
@@ -212,14 +252,19 @@ def equality_jacobian(z, ocp: OptimalControlProblem, grid):
     A = A.at[:, :n_support * n_x].set(jnp.kron(grid.D, jnp.eye(n_x, dtype=z.dtype)))
     A = A.at[rows_i[:, :, None], idx[:, None, :]].add(J)
     blocks = [A]
-    if grid.scheme == "LG":
-        Q = jnp.zeros((n_x, n), z.dtype)
-        Q = Q.at[:, idx.reshape(-1)].add(
-            jnp.transpose(grid.weights[:, None, None] * J, (1, 0, 2)).reshape(n_x, -1))
-        eye = jnp.eye(n_x, dtype=z.dtype)
-        last = (n_state_rows(grid) - 1) * n_x
-        Q = Q.at[:, :n_x].add(-eye).at[:, last:last + n_x].add(eye)
+    eye = jnp.eye(n_x, dtype=z.dtype)
+    n_states = n_state_rows(grid) * n_x
+    quad, link = quadrature_rows(grid), linkage_rows(grid)
+    if quad is not None:
+        E, W = quad
+        Q = jnp.zeros((E.shape[0], n_x, n), z.dtype)
+        Q = Q.at[:, :, idx.reshape(-1)].add(
+            jnp.einsum("ki,iab->kaib", W, J).reshape(E.shape[0], n_x, -1))
+        Q = Q.reshape(-1, n).at[:, :n_states].add(jnp.kron(E, eye))
         blocks.append(Q)
+    if link is not None:
+        blocks.append(jnp.zeros((link.shape[0] * n_x, n), z.dtype).at[:, :n_states].set(
+            jnp.kron(link, eye)))
     ends = _end_indices(ocp, grid)
     Jb = jax.jacfwd(lambda v: jnp.atleast_1d(ocp.boundary(v[:n_x], v[n_x:], sf, ocp.params)))(
         z[ends])
@@ -246,8 +291,10 @@ def point_hessians(z, multipliers, ocp: OptimalControlProblem, grid):
     h = 0.5 * (sf - ocp.s0)
     n_def = grid.n * n_x
     mu = multipliers[:n_def].reshape(grid.n, n_x)
-    if grid.scheme == "LG":
-        mu = mu + grid.weights[:, None] * multipliers[n_def:n_def + n_x][None]
+    quad = quadrature_rows(grid)
+    if quad is not None:
+        W = quad[1]
+        mu = mu + W.T @ multipliers[n_def:n_def + W.shape[0] * n_x].reshape(-1, n_x)
     s = collocation_s(ocp, grid, sf)
     data_axis = None if ocp.node_data is None else 0
 
@@ -304,19 +351,26 @@ def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
 
 def costates(z, multipliers, ocp: OptimalControlProblem, grid):
     """Costate estimates lambda(s_i) (n, n_x) at the collocation points from the equality
-    multipliers (see the module docstring); in the problem's units, per unit s. On LGL the
-    end points take the transversality conditions instead, lambda(s0) = -(db/dx0)^T nu and
-    lambda(sf) = dphi/dxf + (db/dxf)^T nu (nu: the boundary multipliers), the closure that
-    Fahroo & Ross's (2001) covector mapping needs there: the quadrature estimate is not
-    consistent at the ends."""
-    n_def = grid.n * ocp.n_x
-    Lam = multipliers[:n_def].reshape(grid.n, ocp.n_x)
+    multipliers (see the module docstring); in the problem's units, per unit s. On an
+    `LGMesh` each point takes its own segment's quadrature multiplier. On LGL the end points
+    take the transversality conditions instead, lambda(s0) = -(db/dx0)^T nu and lambda(sf) =
+    dphi/dxf + (db/dxf)^T nu (nu: the boundary multipliers), the closure that Fahroo & Ross's
+    (2001) covector mapping needs there: the quadrature estimate is not consistent at the
+    ends; on an `LGLMesh` both rows of an interior break take the same closure from its
+    linkage condition X(b^-) - X(b^+) = 0, lambda(b^-) = lambda(b^+) = eta (its
+    multiplier)."""
+    n_x = ocp.n_x
+    n_def = grid.n * n_x
+    Lam = multipliers[:n_def].reshape(grid.n, n_x)
     lam = -Lam / grid.weights[:, None]
-    if grid.scheme == "LG":
-        lam = lam - multipliers[n_def:n_def + ocp.n_x][None]
+    quad, link = quadrature_rows(grid), linkage_rows(grid)
+    if quad is not None:
+        W = quad[1]
+        Lam_q = multipliers[n_def:n_def + W.shape[0] * n_x].reshape(-1, n_x)
+        lam = lam - (W.T @ Lam_q) / grid.weights[:, None]
     if grid.scheme == "LGL":
         X, _, sf = unpack(z, ocp, grid)
-        nu = multipliers[n_def:]
+        nu = multipliers[n_def + n_extra_rows(grid) * n_x:]
 
         def ends(x0, xf):
             phi = 0.0 if ocp.terminal_cost is None else ocp.terminal_cost(x0, xf, sf,
@@ -325,4 +379,9 @@ def costates(z, multipliers, ocp: OptimalControlProblem, grid):
 
         d0, df = jax.grad(ends, argnums=(0, 1))(X[0], X[-1])
         lam = lam.at[0].set(-d0).at[-1].set(df)
+        if link is not None:
+            eta = multipliers[n_def:n_def + link.shape[0] * n_x].reshape(-1, n_x)
+            m = grid.segment.n
+            knots = np.arange(link.shape[0])
+            lam = lam.at[knots * m + m - 1].set(eta).at[(knots + 1) * m].set(eta)
     return lam

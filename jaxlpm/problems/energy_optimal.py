@@ -51,7 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import Checked, Rule, coerce_sequences, is_concrete
-from ..collocation.segments import LGRMesh
+from ..collocation.segments import Mesh
 from ..constants import J2_EARTH, R_EARTH
 from ..dynamics import (lvlh_frame_motion, relative_lvlh_acceleration,
                         tschauner_hempel_matrix)
@@ -386,7 +386,7 @@ def safety_stats(problem: EnergyOptimalTransfer, grid, X, U, tau, s, t):
     v = jax.vmap(safety.violations, in_axes=(None, 0, 0, 0, 0))(cons, x_si, u_si, t, drift)
     worst = jnp.maximum(jnp.max(v, axis=0), 0.0)
 
-    k = grid.n_segments if isinstance(grid, LGRMesh) else 1
+    k = grid.n_segments if isinstance(grid, Mesh) else 1
     excess = jnp.maximum(v, 0.0)
     # the rows of the check mesh's segment-major pieces, the last (the final state) counted
     # with the last segment; the trapezoid between rows j and j + 1 belongs to row j's segment

@@ -1,8 +1,8 @@
 """Trajectories of collocated solutions: how a `Solution` on one grid or on a segmented LGR
 mesh (`Collocated`) is evaluated at a time t (s since the start).
 
-`Collocated`: the grid's state polynomial over its support (a `jaxlpm.collocation.Grid`, or an
-`LGRMesh`: one polynomial per segment) and the
+`Collocated`: the grid's state polynomial over its support (a `jaxlpm.collocation.Grid`, or a
+`Mesh` (LGR, LG, LGL): one polynomial per segment) and the
 barycentric control interpolant over its collocation points, in the grid coordinate tau in
 [-1, 1]. How t maps to tau is the `clock`, the independent variable s the family was
 transcribed in (s = s0 + (sf - s0) (tau + 1) / 2):
@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 
 from ..collocation import Grid, barycentric_interpolate
-from ..collocation.segments import LGRMesh
+from ..collocation.segments import Mesh
 from ..orbits import th_to_lvlh, true_anomaly_from_time
 
 CLOCKS = ("true-anomaly", "uniform", "tabulated")
@@ -77,11 +77,11 @@ class ControlInterpolant:
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class MeshControl:
-    """u(x) on an `LGRMesh` mapped to x in [x0, x1]: the segment holding x, then its
-    barycentric interpolant over the segment's Radau points; with magnitude > 0 its direction
-    at that magnitude."""
+    """u(x) on a `Mesh` mapped to x in [x0, x1]: the segment holding x, then its
+    barycentric interpolant over the segment's points; with magnitude > 0 its direction at
+    that magnitude."""
 
-    mesh: LGRMesh
+    mesh: Mesh
     values: jax.Array
     x0: jax.Array
     x1: jax.Array
@@ -104,8 +104,8 @@ def padded_size(n: int) -> int:
 
 def control_interpolant(grid, values, x0, x1, magnitude=0.0, variable="time"):
     """`values` (n, 3) at the grid's collocation points as a `ControlInterpolant` over
-    [x0, x1], zero-padded to `padded_size(n)` points (an `LGRMesh`: a `MeshControl`)."""
-    if isinstance(grid, LGRMesh):
+    [x0, x1], zero-padded to `padded_size(n)` points (a `Mesh`: a `MeshControl`)."""
+    if isinstance(grid, Mesh):
         return MeshControl(grid, values, x0, x1, jnp.asarray(magnitude, values.dtype),
                            variable)
     pad = padded_size(grid.n) - grid.n

@@ -32,7 +32,7 @@ import jax.numpy as jnp
 
 from ..compilation import compiled
 from ..collocation import Grid, lgl
-from ..collocation.segments import LGRMesh
+from ..collocation.segments import Mesh
 from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.newton import NewtonOptions
 from ..problems import EnergyOptimalTransfer
@@ -97,7 +97,8 @@ def default_method(problem, grid):
     model on an LGL grid, Newton-KKT otherwise."""
     if problem.constraints:
         return "augmented-lagrangian"
-    return "kkt" if problem.model == "linear" and grid.scheme == "LGL" else "newton"
+    return ("kkt" if problem.model == "linear" and isinstance(grid, Grid)
+            and grid.scheme == "LGL" else "newton")
 
 
 def refine_method(problem):
@@ -109,16 +110,16 @@ def refine_method(problem):
 def check_grid(grid, method):
     if method == "augmented-lagrangian":
         method = "newton"                     # the same transcription and Newton-KKT
-    if isinstance(grid, LGRMesh) and method == "newton":
-        if grid.segment.n < MIN_NEWTON_POINTS["LGR"]:
+    if isinstance(grid, Mesh) and method == "newton":
+        if grid.segment.n < MIN_NEWTON_POINTS[grid.scheme]:
             raise ValueError(f"the Newton-KKT solver needs at least "
-                             f"{MIN_NEWTON_POINTS['LGR']} LGR points per segment, got "
-                             f"{grid.segment.n}")
+                             f"{MIN_NEWTON_POINTS[grid.scheme]} {grid.scheme} points per "
+                             f"segment, got {grid.segment.n}")
         return
     if not isinstance(grid, Grid):
         raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(n), lgr(n): n points) or, "
-                         f"for method 'newton', an LGRMesh (lgr_mesh(k, n)), got "
-                         f"{grid!r:.60}")
+                         f"for method 'newton', a Mesh (lgr_mesh, lg_mesh, lgl_mesh(k, n)), "
+                         f"got {grid!r:.60}")
     if method == "newton":
         if grid.n < MIN_NEWTON_POINTS[grid.scheme]:
             raise ValueError(f"the Newton-KKT solver needs at least "
@@ -153,4 +154,4 @@ FAMILY = FamilySolver(problem=EnergyOptimalTransfer,
                                "augmented-lagrangian": ALOptions}, run=run,
                       default_grid=lambda problem: lgl(DEFAULT_POINTS), check_grid=check_grid,
                       default_method=default_method, refine=refine_transfer,
-                      refine_method=refine_method)
+                      refine_method=refine_method, ladders=True)

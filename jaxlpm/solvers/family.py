@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from .._validation import is_concrete
+from .refine import MeshLadder
 
 
 @dataclass(frozen=True)
@@ -24,6 +25,7 @@ class FamilySolver:
                   method `refine_method` (`jaxlpm.solvers.refine`; judge a
                   `jaxlpm.solution.Judge`)
     refine_method the method refinement uses: a name, or problem -> name
+    ladders       refine also takes a `MeshLadder` (the grid of `solve(problem, ladder)`)
     """
 
     problem: type
@@ -34,12 +36,24 @@ class FamilySolver:
     default_method: Callable | None = None
     refine: Callable | None = None
     refine_method: str | Callable | None = None
+    ladders: bool = False
 
     def solve(self, problem, grid, method, options, judge):
         """The solution of `problem` with `judge` (INACCURATE where the error estimate
-        exceeds the tolerance) applied."""
+        exceeds the tolerance) applied; grid a `MeshLadder`: refinement on that ladder."""
         refine_method = (self.refine_method(problem) if callable(self.refine_method)
                          else self.refine_method)
+        ladder = grid if isinstance(grid, MeshLadder) else None
+        if ladder is not None:
+            if not self.ladders:
+                raise ValueError(f"a MeshLadder refines energy-optimal transfers; a "
+                                 f"{self.problem.__name__} refines on its own ladder "
+                                 f"(solve(problem) without a grid)")
+            if not is_concrete(problem) or method not in (None, refine_method):
+                raise ValueError(f"refinement on a MeshLadder needs a concrete problem (not "
+                                 f"under jit or vmap: use jaxlpm.batch.refine.refine_batch) "
+                                 f"and the method {refine_method!r}, got method {method!r}")
+            grid = None
         refining = (grid is None and self.refine is not None and is_concrete(problem)
                     and method in (None, refine_method))
         if refining:
@@ -63,6 +77,7 @@ class FamilySolver:
                                  f"got {type(options).__name__}")
         problem.check()
         if refining:
-            return self.refine(problem, options, judge)
+            return self.refine(problem, options, judge,
+                               *(() if ladder is None else (ladder,)))
         self.check_grid(grid, method)
         return judge(self.run(problem, grid, method, options))

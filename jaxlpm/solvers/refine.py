@@ -1,7 +1,9 @@
-"""Adaptive hp mesh refinement: solve on a ladder of `LGRMesh` shapes until the error estimate
-meets the tolerance (Patterson, Hager & Rao 2015; Darby, Hager & Rao 2011).
+"""Adaptive hp mesh refinement: solve on a ladder of mesh shapes (`LGRMesh` by default; `LGMesh`
+and `LGLMesh` for the energy-optimal family) until the error estimate meets the tolerance
+(Patterson, Hager & Rao 2015; Darby, Hager & Rao 2011).
 
-A `MeshLadder` is a fixed sequence of mesh shapes (segments K, Radau points per segment n):
+A `MeshLadder` is a fixed sequence of mesh shapes (segments K, points per segment n) of one
+scheme:
 each rung compiles once, whatever its breaks (they are an array leaf of the mesh), so a batch
 of problems refines rung by rung with one compiled function per rung (`jaxlpm.batch`). From one
 rung to the next:
@@ -13,7 +15,8 @@ rung to the next:
               is; a segment where a safety constraint is violated between the nodes beyond
               the tolerance weighs as the least accurate one times the excess to the fourth
               (`jaxlpm.solution.accuracy.refinement_error`);
-  p (degree)  a rung may raise n (the default ladder's last rung doubles it).
+  p (degree)  a rung may raise n (`MeshLadder(((4, 8), (4, 16), (8, 16)))`: its second rung
+              keeps the breaks and doubles each segment's points; the default is h only).
 Each rung is warm-started from the previous solution, its state polynomial and control
 interpolated onto the new mesh (`interpolated_guess`). Refinement stops at the first rung whose
 solution is not INACCURATE (SUCCESS, or a failure of the solver that a finer mesh does not
@@ -26,7 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..collocation.segments import LGRMesh, lgr_mesh
+from ..collocation.segments import MESHES, Mesh, make_mesh
 from ..status import Status
 
 SPLIT_EXPONENT = 0.25    # a segment 10^4 times less accurate than another gets 10x the pieces
@@ -35,14 +38,20 @@ STOP = (Status.SUCCESS, Status.INVALID_INPUT, Status.SINGULAR)   # a finer mesh 
 
 @dataclass(frozen=True)
 class MeshLadder:
-    """The mesh shapes of refinement, coarsest first: ((K, n), ...) segments and Radau points
-    per segment. The default goes from 4 x 16 = 64 points (Mei 2010's N = 64 resolves a
-    near-circular revolution) to 32 x 16 = 512 (the Newton-KKT solve's dense Lagrangian
-    Hessian grows with the square of the points: 0.3 GiB at 512)."""
+    """The mesh shapes of refinement, coarsest first: ((K, n), ...) segments and points per
+    segment, on meshes of `scheme` ("LGR": `LGRMesh`, the default; "LG": `LGMesh`; "LGL":
+    `LGLMesh`; the fuel-optimal and minimum-time families refine on LGR only). The default
+    goes from 4 x 16 = 64 points (Mei 2010's N = 64 resolves a near-circular revolution) to
+    32 x 16 = 512 (the Newton-KKT solve's dense Lagrangian Hessian grows with the square of
+    the points: 0.3 GiB at 512). `solve(problem, ladder)` climbs a ladder of one's own
+    (energy-optimal transfers)."""
 
     rungs: tuple = ((4, 16), (8, 16), (16, 16), (32, 16))
+    scheme: str = "LGR"
 
     def __post_init__(self):
+        if self.scheme not in MESHES:
+            raise ValueError(f"scheme must be one of {sorted(MESHES)}, got {self.scheme!r}")
         rungs = tuple(tuple(r) for r in self.rungs)
         if not rungs or any(len(r) != 2 or not all(isinstance(v, (int, np.integer)) and v >= 1
                                                    for v in r) for r in rungs):
@@ -72,15 +81,16 @@ def split_breaks(breaks, segment_error, k_new: int) -> np.ndarray:
     return np.concatenate(pieces + [b[-1:]])
 
 
-def next_mesh(rung, previous, judge) -> LGRMesh:
-    """The mesh of `rung` (K, n): uniform for the first (previous None), else the previous
-    solution's breaks split by the `jaxlpm.solution.Judge`'s `refinement_error` (its segment
-    errors, raised where safety constraints are violated between the nodes; `split_breaks`)."""
+def next_mesh(rung, previous, judge, scheme: str = "LGR") -> Mesh:
+    """The `scheme` mesh of `rung` (K, n): uniform for the first (previous None), else the
+    previous solution's breaks split by the `jaxlpm.solution.Judge`'s `refinement_error` (its
+    segment errors, raised where safety constraints are violated between the nodes;
+    `split_breaks`)."""
     k, n = rung
-    if previous is None or not isinstance(previous.grid, LGRMesh):
-        return lgr_mesh(k, n)
-    return lgr_mesh(k, n, split_breaks(previous.grid.breaks, judge.refinement_error(previous),
-                                       k))
+    if previous is None or not isinstance(previous.grid, Mesh):
+        return make_mesh(scheme, k, n)
+    return make_mesh(scheme, k, n, split_breaks(previous.grid.breaks,
+                                                judge.refinement_error(previous), k))
 
 
 def interpolated_guess(rows, controls, grid, mesh):
@@ -100,7 +110,7 @@ def refine(solve_on, guess, ladder: MeshLadder, judge):
     the last solution, with stats["rung"] the index of the rung it was solved on."""
     solution = None
     for index, rung in enumerate(ladder.rungs):
-        mesh = next_mesh(rung, solution, judge)
+        mesh = next_mesh(rung, solution, judge, ladder.scheme)
         usable = solution is not None and int(solution.status) == Status.INACCURATE
         z0 = guess(solution, mesh) if usable else None
         solution = judge(solve_on(mesh, z0))

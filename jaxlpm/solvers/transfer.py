@@ -16,6 +16,7 @@ import jax.numpy as jnp
 from ..problems.energy_optimal import (control_scale, lvlh_state, model_state, to_solution,
                                        transfer_ocp)
 from ..nlp.transcription import equality, pack, state_s, state_tau, unpack
+from ..collocation import Grid
 from ..collocation.segments import LGRMesh
 from ..linalg import sequential_when_batched
 from ..status import Status
@@ -34,7 +35,7 @@ def _warm_start(problem, ocp, grid):
     states are not reachable with the thrust axes given (the law's status SINGULAR; on LG and
     LGR a step that leaves the linear constraints unmet)."""
     linear = problem.replace(model="linear", constraints=())
-    if grid.scheme == "LGL":
+    if isinstance(grid, Grid) and grid.scheme == "LGL":
         law = kkt_law(linear, grid, estimate=False)
         X_lvlh, U_si = law.node_states, law.node_controls
         singular = law.status == Status.SINGULAR
@@ -73,9 +74,13 @@ LINEAR_ALGEBRA = ("auto", "condensed", "dense")
 
 
 def _condensable(problem, grid):
-    """The condensed solve applies to every model with every thrust axis; on the linear model
-    a single grid keeps the dense solve (one Newton step of a QP) and a segmented mesh,
-    whose dense KKT matrix grows with the square of its points, takes the condensed one."""
+    """The condensed solve applies to every model with every thrust axis, on a single grid or
+    an `LGRMesh` (LG and LGL meshes take the dense solve: their quadrature and linkage rows
+    are not condensed); on the linear model a single grid keeps the dense solve (one Newton
+    step of a QP) and an `LGRMesh`, whose dense KKT matrix grows with the square of its
+    points, takes the condensed one."""
+    if not isinstance(grid, (Grid, LGRMesh)):
+        return False
     return all(problem.thrust_axes) and (problem.model != "linear"
                                          or isinstance(grid, LGRMesh))
 
