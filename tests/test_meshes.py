@@ -81,6 +81,18 @@ def test_the_batch_refines_on_lg_meshes(refined):
     np.testing.assert_allclose(out["cost"], float(fine.cost), rtol=1e-10)
 
 
+def test_a_p_rung_raises_the_degree_and_keeps_the_breaks():
+    """p refinement: a rung of the same segment count with more points keeps the breaks and
+    raises each segment's degree. With a 1 m, 1 mm/s tolerance, 2 x 12 LGR points are
+    INACCURATE (97 m) and 2 x 24 resolve the transfer (measured 0.075 m, 1.3e-4 m/s)."""
+    tolerance = lpm.Tolerance(position=1.0, velocity=1e-3)
+    sol = lpm.solve(problem(), lpm.MeshLadder(((2, 12), (2, 24))), tolerance=tolerance)
+    assert int(sol.stats["rung"]) == 1 and sol.grid.segment.n == 24
+    np.testing.assert_array_equal(sol.grid.breaks, [-1.0, 0.0, 1.0])
+    miss = np.asarray(lpm.verify.fly(sol).terminal_error)
+    assert miss[0] < tolerance.position and miss[1] < tolerance.velocity
+
+
 def test_ladders_are_checked():
     with pytest.raises(ValueError, match="scheme must be one of"):
         lpm.MeshLadder(RUNGS, scheme="Chebyshev")
