@@ -15,6 +15,9 @@
    member by member), the sum of its solve times (its builds, one per mesh, reported apart).
    Throughput ratio: IPOPT's total solve time over ours; ours runs on one core (one process),
    IPOPT too (one process per problem, sequentially), so the ratio is per core.
+3. The same batch through the sweep engine (`jaxlpm.batch.sweep` with points ["refine"], one
+   chunk, written to disk): its chunk compute time from the manifest (compiles logged apart),
+   against IPOPT's solves as in 2.
 
 Run:  PYTHONPATH=. python experiments/benchmarks/bench_refine.py [--members 32]
       [--out results/bench_refine.json]
@@ -25,7 +28,9 @@ import json
 import os
 import statistics
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 sys.path.insert(0, os.path.dirname(__file__))
 from bench_newton import (IPOPT_OPTIONS, build_ipopt, compare, host, own_kkt_residuals,  # noqa
@@ -37,6 +42,7 @@ import numpy as np  # noqa: E402
 import casadi as ca  # noqa: E402
 
 import jaxlpm as lpm  # noqa: E402
+from jaxlpm.batch import SweepFamily, problem_table, sweep  # noqa: E402
 from jaxlpm.batch.refine import refine_batch  # noqa: E402
 from jaxlpm.cases import mei2010  # noqa: E402
 from common import block, machine_info, timed  # noqa: E402
@@ -114,6 +120,7 @@ def batch(res, members, seed):
         print(f"  member {i}: rung {rows[-1]['rung']}, IPOPT {peer['solve_median_s']:.3f} s "
               f"({peer['status']})", flush=True)
     ipopt_total = sum(r["solve_median_s"] for r in rows)
+    sweep_res = refined_sweep(probs, out)
     res["batch"] = dict(
         members=members, seed=seed, dispersion="jaxlpm.cases.mei2010.dispersion, two-body",
         ours=dict(first_call_s=first, steady_s=steady,
@@ -125,11 +132,36 @@ def batch(res, members, seed):
                    build_total_s=sum(r["build_s"] for r in rows),
                    solved=sum(r["status"] == "Solve_Succeeded" for r in rows),
                    cost_rel_diff_max=max(r["cost_rel_diff"] for r in rows), rows=rows),
-        throughput_ratio_ours_over_ipopt=ipopt_total / steady)
+        throughput_ratio_ours_over_ipopt=ipopt_total / steady,
+        sweep=dict(sweep_res, throughput_ratio_over_ipopt=ipopt_total / sweep_res["compute_s"]))
     b = res["batch"]
     print(f"[batch] {members} members: ours {steady:.2f} s steady (first {first:.1f} s), "
           f"IPOPT {ipopt_total:.2f} s of solves on the same final meshes: throughput ratio "
           f"{b['throughput_ratio_ours_over_ipopt']:.2f}", flush=True)
+    sw = b["sweep"]
+    print(f"[sweep] the same members through the sweep engine's 'refine' group (one chunk): "
+          f"{sw['compute_s']:.2f} s of chunk compute (compiles {sw['compile_s']:.1f} s), "
+          f"throughput ratio {sw['throughput_ratio_over_ipopt']:.2f}; costs against "
+          f"refine_batch {sw['cost_rel_diff_max']:.1e}", flush=True)
+
+
+def refined_sweep(probs, batch_out):
+    """The batch through `jaxlpm.batch.sweep` with points ["refine"] (one chunk of all the
+    members, on disk): its chunk compute seconds (the manifest's log, compiles apart) and the
+    largest relative cost difference from `refine_batch`'s records `batch_out`."""
+    params, build = problem_table(probs)
+    family = SweepFamily(name="bench-refine", build=build)
+    members = next(iter(params.values())).shape[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        result = sweep(family, params, ["refine"], Path(tmp) / "sweep", chunk_size=members,
+                       progress=False)
+        manifest = json.loads((Path(tmp) / "sweep" / "manifest.json").read_text())
+    table = result.tables["refine"]
+    return dict(compute_s=sum(c["seconds"] for c in manifest["chunks"].values()),
+                compile_s=sum(c["seconds"] for c in manifest["compiles"]),
+                rung_counts={str(k): int(v) for k, v in
+                             zip(*np.unique(table["rung"], return_counts=True))},
+                cost_rel_diff_max=float(np.max(np.abs(table["cost"] / batch_out["cost"] - 1))))
 
 
 def main(argv=None):
