@@ -1,6 +1,7 @@
 """Multi-segment LG and LGL meshes (issue 19 items 3 and 5): the energy-optimal transfer on
 `lg_mesh` and `lgl_mesh` against `lgr_mesh`, mesh refinement on each scheme's ladder
-(`solve(problem, MeshLadder(..., scheme=...))`), and the batch's refinement on LG meshes.
+(`solve(problem, MeshLadder(..., scheme=...))`), the batch's refinement and a keep-out zone
+(path constraints) on LG meshes.
 The costates at the segments' joins are checked against the analytic HCW costate in
 tests/test_newton.py, the operators in tests/test_accuracy.py.
 
@@ -91,6 +92,25 @@ def test_a_p_rung_raises_the_degree_and_keeps_the_breaks():
     np.testing.assert_array_equal(sol.grid.breaks, [-1.0, 0.0, 1.0])
     miss = np.asarray(lpm.verify.fly(sol).terminal_error)
     assert miss[0] < tolerance.position and miss[1] < tolerance.velocity
+
+
+def test_a_keep_out_zone_on_lg_meshes():
+    """Path constraints on an LG mesh (the augmented Lagrangian over the dense Newton-KKT):
+    tests/test_safety.py's fly-by past a 1.5 km keep-out sphere, refined on LG meshes, stays
+    outside it between the nodes to the tolerance (0.1 m) and costs more than the free
+    transfer."""
+    orbit = lpm.KeplerOrbit(a=7000e3, e=0.05, f0=0.4)
+    free = lpm.EnergyOptimalTransfer(orbit, jnp.array([100.0, -2000.0, 50.0, 0.0, 0.0, 0.0]),
+                                     jnp.array([0.0, 2000.0, 0.0, 0.0, 0.0, 0.0]),
+                                     0.5 * float(orbit.period))
+    zone = lpm.KeepOutEllipsoid(semi_axes=(1500.0, 1500.0, 1500.0))
+    sol = lpm.solve(free.replace(constraints=(zone,)),
+                    lpm.MeshLadder(((4, 10), (8, 10)), scheme="LG"))
+    assert isinstance(sol.grid, lpm.LGMesh) and sol.method == "augmented-lagrangian"
+    t = np.linspace(0.0, float(sol.duration), 4001)
+    reach = np.linalg.norm(np.asarray(sol.states(t))[:, :3], axis=1)
+    assert reach.min() > 1500.0 - lpm.DEFAULT_TOLERANCE.position
+    assert float(sol.cost) > float(lpm.solve(free).cost)
 
 
 def test_ladders_are_checked():
