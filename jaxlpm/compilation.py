@@ -33,8 +33,7 @@ Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
                     when loaded from disk in jaxlib 0.10.2: "Function and_and_fusion not
                     found" (the test suite's shared cache, 2026-12-04 and -05). The first call
                     of an executable loaded from disk therefore runs to the end and, on such
-                    an error, the program is compiled afresh; the entry is replaced by a
-                    marker, so later processes compile it without trying the disk.)
+                    an error, the program is compiled afresh, overwriting the entry.)
   "optimized"       XLA's defaults: for a script that calls `solve` thousands of times one by
                     one (batches under jax.vmap inside the user's jax.jit get the user's
                     options in any case).
@@ -214,7 +213,6 @@ class Compiled:
                 return out
             except jax.errors.JaxRuntimeError:
                 events.append(dict(name=self.name, source="disk", failed=True))
-                _mark_unloadable(key)
         executable = _memory[key] = self._compile(key, *self._lower(dynamic, static))
         return executable(dynamic)
 
@@ -222,7 +220,7 @@ class Compiled:
         """The executable from disk, or None; its load recorded in `events`."""
         path = _entry(key) if self.on_disk else None
         t0 = time.perf_counter()
-        if path is not None and path.exists() and not _unloadable(path).exists():
+        if path is not None and path.exists():
             executable = _load(path)
             if executable is not None:
                 events.append(dict(name=self.name, source="disk",
@@ -252,8 +250,8 @@ class Compiled:
         # only the fast profile's executables go to disk: more of those compiled with XLA's
         # default LLVM optimisation failed when loaded in jaxlib 0.10.2 ("Function
         # or_and_fusion not found", the test suite's shared cache, 2026-12-04); "optimized"
-        # relies on JAX's own cache. A program that failed so once is compiled every time.
-        if path is not None and profile() == "fast" and not _unloadable(path).exists():
+        # relies on JAX's own cache
+        if path is not None and profile() == "fast":
             _store(path, executable)
         return executable
 
@@ -333,26 +331,6 @@ def _entry(key):
         return None
     digest = hashlib.sha256(f"{_FORMAT}\n{_environment()}\n{text}".encode()).hexdigest()
     return folder / f"{key[0].rsplit('.', 1)[-1]}-{digest[:32]}.bin"
-
-
-def _unloadable(path: Path) -> Path:
-    """The marker beside an entry whose executable failed when loaded (`_mark_unloadable`)."""
-    return path.with_suffix(".unloadable")
-
-
-def _mark_unloadable(key) -> None:
-    """Remember that the executable of `key` fails when loaded from disk ("Function ... not
-    found", jaxlib 0.10.2: the same program every time, e.g. 3 small flight-evaluation programs
-    of `jaxlpm reproduce mei2010`): it is removed and compiled in every process instead of
-    being loaded, run until it fails, compiled and written again."""
-    path = _entry(key)
-    if path is None:
-        return
-    try:
-        _unloadable(path).touch()
-        path.unlink(missing_ok=True)
-    except OSError:
-        pass
 
 
 @functools.cache

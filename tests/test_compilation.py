@@ -155,35 +155,3 @@ def test_prefetch_compiles_what_the_run_needs(monkeypatch):
     assert any("stopped early" in line for line in lines)
     fails_on_zeros()                                         # compiles the second program
     compilation.clear()
-
-
-def _twice(x):
-    return 2.0 * x
-
-
-def test_an_executable_that_fails_when_loaded_is_compiled_from_then_on(tmp_path, monkeypatch):
-    """jaxlib 0.10.2 loads some executables that then fail ("Function and_and_fusion not
-    found"): the first call compiles the program afresh and leaves a marker in place of the
-    entry, so the next process compiles it without loading, running and rewriting it."""
-    monkeypatch.setenv("JAXLPM_CACHE_DIR", str(tmp_path))
-    fn = compilation.Compiled(_twice)
-    np.testing.assert_array_equal(fn(jnp.arange(3.0)), [0.0, 2.0, 4.0])
-    entries = list((tmp_path / "executables").glob("_twice-*.bin"))
-    assert len(entries) == 1
-
-    class Broken:
-        def __call__(self, args):
-            raise jax.errors.JaxRuntimeError("Function and_and_fusion not found")
-
-    compilation.clear()
-    monkeypatch.setattr(compilation, "_load", lambda path: Broken())
-    np.testing.assert_array_equal(fn(jnp.arange(3.0)), [0.0, 2.0, 4.0])   # compiled afresh
-    assert not entries[0].exists() and entries[0].with_suffix(".unloadable").exists()
-
-    def no_load(path):
-        raise AssertionError("an unloadable entry was read")
-
-    compilation.clear()
-    monkeypatch.setattr(compilation, "_load", no_load)
-    np.testing.assert_array_equal(fn(jnp.arange(3.0)), [0.0, 2.0, 4.0])
-    assert not entries[0].exists()                 # and not written again
