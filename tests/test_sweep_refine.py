@@ -163,3 +163,18 @@ def test_refuses_what_it_cannot_refine(tmp_path):
     with pytest.raises(ValueError, match="positive integers.*'refine'"):
         sweep(family(), PARAMS, ["refined"], tmp_path / "x", progress=False)
     assert not (tmp_path / "x").exists()
+
+
+def test_gradients_on_each_members_final_mesh():
+    """Refinement(gradients=True) through the sweep: each member's implicit gradient of the
+    cost, taken on its final mesh, is refine_batch's (the same programs per member: 1e-10)."""
+    params = parameter_grid(e=[0.0, 0.3], revolutions=[1.0])
+    refinement = Refinement(ladder=MeshLadder(((2, 8), (4, 8))), gradients=True)
+    t = sweep(family(), params, ["refine"], chunk_size=2, refinement=refinement,
+              progress=False).tables["refine"]
+    batch = refine_batch(jax.vmap(family().build)(params), ladder=refinement.ladder,
+                         gradients=True)
+    np.testing.assert_array_equal(t["rung"], batch["rung"])
+    for name in ("dcost_dx0", "dcost_dxf", "dcost_dduration", "dcost_dorbit.e"):
+        np.testing.assert_allclose(t[name], batch[name], rtol=RTOL,
+                                   atol=RTOL * np.max(np.abs(batch[name])))
