@@ -32,7 +32,7 @@ import numpy as np
 
 from ..collocation import lgr
 from ..collocation.segments import (MESHES, LGRMesh, SegmentedMesh, aligned_breaks,
-                                    lgr_mesh, uniform_breaks)
+                                    uniform_breaks)
 from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.homotopy import HomotopyOptions
 from ..nlp.newton import NewtonOptions
@@ -183,8 +183,7 @@ class MinTimePlan:
         return self.options
 
     def first_breaks(self, k):
-        return np.asarray(uniform_breaks(0.0, 1.0, k) if self.condensed
-                          else lgr_mesh(k, 2).breaks)
+        return uniform_breaks(0.0 if self.condensed else -1.0, 1.0, k)
 
     def next_breaks(self, carry, k, previous):
         if self.condensed:

@@ -216,6 +216,12 @@ def _sharded(member, batch_size, mesh):
                                  check_vma=False))
 
 
+def _on_devices(v: np.ndarray, sharding):
+    """A host array of a chunk's rows placed on the devices of `sharding` (every process
+    builds the blocks of its own devices)."""
+    return jax.make_array_from_callback(v.shape, sharding, lambda i: v[i])
+
+
 def _chunk_function(family, grid, batch_size, mesh):
     """A chunk on `grid`: family.evaluate of each member (`_sharded`)."""
     return _sharded(lambda p: family.evaluate(p, grid), batch_size, mesh)
@@ -252,16 +258,14 @@ class _RefinedChunks:
         return dict(self.refinement.settings(), method=self.plan.method,
                     rungs=[list(r) for r in self.plan.ladder.rungs])
 
-    def _place(self, tree):
-        return jax.tree_util.tree_map(lambda v: jax.make_array_from_callback(
-            v.shape, self.sharding, lambda i, v=np.asarray(v): v[i]), tree)
 
     def __call__(self, batch, members: int) -> dict:
         """One chunk's records (`lay.rows` rows, the first `members` of them real)."""
         active = np.arange(self.lay.rows) < members
 
         def run_rung(index, shape, previous, breaks, carry, act):
-            args = (batch,) + self._place((breaks, carry, act))
+            args = (batch,) + jax.tree_util.tree_map(
+                lambda v: _on_devices(np.asarray(v), self.sharding), (breaks, carry, act))
             if index not in self.compiled:
                 t = time.perf_counter()
                 fn = _rung_function(self.plan, shape, previous if self.plan.warm_start else None,
@@ -383,9 +387,7 @@ def sweep(family: SweepFamily, params: dict, points, out=None, chunk_size: int =
     def chunk_members(c):
         idx = np.arange(c * chunk_size, min((c + 1) * chunk_size, members))
         pad = np.concatenate([idx, np.full(lay.rows - idx.size, idx[0])])
-        batch = {k: jax.make_array_from_callback((lay.rows, *v.shape[1:]), sharding,
-                                                 lambda i, v=v[pad]: v[i])
-                 for k, v in params.items()}
+        batch = {k: _on_devices(v[pad], sharding) for k, v in params.items()}
         return idx, batch
 
     t = time.perf_counter()

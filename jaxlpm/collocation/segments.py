@@ -111,8 +111,8 @@ def aligned_breaks(s0: float, sf: float, k: int, switches, min_gap: float = 1e-6
 class Mesh:
     """K segments of one grid on tau in [-1, 1], seen as one grid (the hp meshes of Darby,
     Hager & Rao 2011 and Patterson, Hager & Rao 2015; the multi-interval Radau and Gauss
-    methods of Garg et al. 2010, and LGL segments joined by linkage conditions, Fahroo & Ross
-    2001's knotting): `LGRMesh`, `LGMesh`, `LGLMesh`.
+    methods of Garg et al. 2010, and LGL segments joined by linkage conditions, Ross & Fahroo's
+    pseudospectral knotting): `LGRMesh`, `LGMesh`, `LGLMesh`.
 
     It has the attributes of a `Grid` that the transcription reads (`scheme`, `n` = K n_k
     collocation points, `points`, `weights`, `D`, `support`) and the layout of its state rows

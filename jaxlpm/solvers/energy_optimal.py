@@ -21,7 +21,8 @@ outer_iterations, path_residual,
 complementarity and path_multipliers.
 
 `solve(problem)` without a grid, for a concrete problem, refines the mesh (`refine_transfer`:
-Newton-KKT on the `MeshLadder` of `LGRMesh` shapes until the estimate meets the tolerance);
+Newton-KKT on the `MeshLadder` of mesh shapes, `LGRMesh` by default, until the estimate meets
+the tolerance; `solve(problem, ladder)` climbs a ladder of LG or LGL meshes too);
 traced (under jit/vmap) it solves on the default grid and reports the estimate and status
 (batches refine with `jaxlpm.batch.refine.refine_batch`).
 """
