@@ -170,6 +170,42 @@ def test_gravity_difference_keeps_precision(sep):
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-14 * np.linalg.norm(want))
 
 
+@pytest.mark.parametrize("j2", [None, 0.0, J2_EARTH])
+def test_gravity_difference_derivatives_are_those_of_the_field(j2):
+    """The derivatives of gravity_acceleration_difference (its custom JVP: the field's own
+    Jacobian at r + dr and r) equal autodiff of the plain difference a(r + dr) - a(r): first
+    derivatives in r, dr, mu, j2, r_eq and the second in dr (Newton-KKT's Hessian). Both
+    are the same formulas in another order: agreement to ~1e-12 of each derivative's size
+    (the r derivative J(r + dr) - J(r) cancels in both alike, to eps |r| / |dr| ~ 1e-12 at
+    10 km). j2 = None: two-body alone, equal to j2 = 0."""
+    rng = np.random.default_rng(7)
+    r = rng.normal(size=3)
+    r *= 7.2e6 / np.linalg.norm(r)
+    dr = rng.normal(size=3) * 1e4
+    jj = J2_EARTH if j2 is None else j2
+
+    def plain(r, dr, mu, j2v, r_eq):
+        a = lambda x: gravity_acceleration(x, mu, None if j2 is None else j2v, r_eq)  # noqa
+        return a(r + dr) - a(r)
+
+    def ours(r, dr, mu, j2v, r_eq):
+        return gravity_acceleration_difference(r, dr, mu, None if j2 is None else j2v, r_eq)
+
+    args = (r, dr, MU_EARTH, jj, R_EARTH)
+    for k in range(5):
+        want = np.asarray(jax.jacfwd(plain, argnums=k)(*args))
+        got = np.asarray(jax.jacfwd(ours, argnums=k)(*args))
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.max(np.abs(want)) + 1e-300)
+        got_rev = np.asarray(jax.jacrev(ours, argnums=k)(*args))
+        np.testing.assert_allclose(got_rev, want, rtol=0, atol=1e-12 * np.max(np.abs(want)) + 1e-300)
+    want = np.asarray(jax.hessian(plain, argnums=1)(*args))
+    got = np.asarray(jax.hessian(ours, argnums=1)(*args))
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.max(np.abs(want)))
+    if j2 is None:
+        np.testing.assert_array_equal(np.asarray(ours(*args)), np.asarray(
+            gravity_acceleration_difference(r, dr, MU_EARTH, 0.0, R_EARTH)))
+
+
 # --------------------------------------------------------------------------------------------
 # LVLH frame of a J2-perturbed chief
 # --------------------------------------------------------------------------------------------

@@ -41,6 +41,7 @@ import jax
 import jax.numpy as jnp
 
 from ..collocation import Grid
+from ..collocation.padded import PaddedGrid
 from ..collocation.segments import LGRMesh, Mesh, lgr_mesh
 from ..linalg import dense_solve
 from .transcription import support_rows
@@ -74,10 +75,17 @@ def check_mesh(grid) -> LGRMesh:
     """The check mesh of a grid: each of its segments (one segment [-1, 1] for a `Grid`) cut
     into `check_pieces(n_k)` equal pieces of `CHECK_POINTS` Radau points each: more points
     than the segment has, in small pieces, so that the check flight's Newton systems stay
-    small (12 x n_x unknowns) whatever the grid."""
+    small (12 x n_x unknowns) whatever the grid. A `PaddedGrid` of lgl(n): lgl(n)'s pieces,
+    then pieces of zero length at tau = 1 up to its capacity's count."""
     breaks, n = _segments(grid)
     c = check_pieces(n)
-    cuts = breaks[:-1, None] + jnp.diff(breaks)[:, None] * (jnp.arange(c) / c)[None]
+    fraction = jnp.arange(c) / c
+    if isinstance(grid, PaddedGrid):
+        # the grid's own pieces, then the padding's: zero length at the end (tau = 1), where
+        # the estimate and the check flight stand still
+        live = jnp.maximum(1, -(-grid.live // POINTS_PER_PIECE))
+        fraction = jnp.where(jnp.arange(c) < live, jnp.arange(c) / live, 1.0)
+    cuts = breaks[:-1, None] + jnp.diff(breaks)[:, None] * fraction[None]
     return LGRMesh(breaks=jnp.concatenate([cuts.reshape(-1), breaks[-1:]]),
                    segment=lgr_mesh(1, CHECK_POINTS).segment)
 

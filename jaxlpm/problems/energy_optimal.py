@@ -273,7 +273,8 @@ def transfer_ocp(problem: EnergyOptimalTransfer, grid):
     else:
         states = chief.state[collocated_rows(grid)]
         q = o.mean_motion / jax.vmap(anomaly_rate)(states)
-        j2 = problem.j2 if problem.model == "j2" else 0.0 * problem.j2
+        # two-body: no J2 terms in the program at all (`gravity`: j2 = None)
+        j2 = problem.j2 if problem.model == "j2" else None
         frames = jax.vmap(lvlh_frame_motion, in_axes=(0, None, None, None))(
             states, o.mu, j2, problem.r_eq)
         data = (states[:, :3], frames, q)

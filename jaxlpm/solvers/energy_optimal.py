@@ -30,15 +30,18 @@ traced (under jit/vmap) it solves on the default grid and reports the estimate a
 import dataclasses
 
 import jax.numpy as jnp
+import numpy as np
 
+from .._validation import is_concrete
 from ..compilation import compiled
 from ..collocation import Grid, lgl
+from ..collocation.padded import pad_grid
 from ..collocation.segments import Mesh
 from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.newton import NewtonOptions
 from ..problems import EnergyOptimalTransfer
 from .family import FamilySolver
-from .lq import kkt_law, stm_law
+from .lq import kkt_law, stm_law, unpadded
 from ..problems.energy_optimal import scaled_rows
 from .refine import DEFAULT_LADDER, MeshLadder, interpolated_guess, refine
 from .transfer import newton_transfer
@@ -147,6 +150,9 @@ def run(problem, grid, method, options):
     if problem.model != "linear":
         raise ValueError(f"the {method!r} law is linear: model must be 'linear', got "
                          f"{problem.model!r} (use method='newton' for nonlinear models)")
+    if is_concrete(problem) and np.ndim(problem.duration) == 0:
+        # one solve: on the grid padded to its capacity, one program for every grid up to it
+        return unpadded(_LAWS[method](problem, pad_grid(grid.n)), grid)
     return _LAWS[method](problem, grid)
 
 

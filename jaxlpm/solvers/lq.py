@@ -22,6 +22,7 @@ kkt_law: Mei 2010 §3.2, eq. (12)-(16): the state equations collocated with the 
     eq. (16); the multipliers gamma of eq. (16) are then recovered from its stationarity.
 """
 
+import dataclasses
 import functools
 import operator
 
@@ -29,6 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..collocation.padded import grid_rows, padding
 from ..dynamics.stm import IP, OP, ya_entries
 from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, small_spd_solve
 from ..orbits import lvlh_to_th, time_from_true_anomaly, true_anomaly_from_time
@@ -364,10 +366,19 @@ def kkt_law(problem, grid, estimate: bool = True) -> Solution:
     e, rho, half, f = s["e"], s["rho"], s["half"], s["f"]
     Dh = grid.D / half
     b = 1.0 / rho**3
-    c = half * grid.weights / rho**2
+    weights = grid.weights
+    c = half * weights / rho**2
     X0, XT = s["X0"], s["XT"]
     axes = np.asarray(problem.thrust_axes)
     (K_ip, G_ip), (K_op, G_op) = _second_order_blocks(e, f)
+    pad = padding(grid)
+    if pad is not None:
+        # a padded grid's padding rows (zero rows and columns of D) as U = Q, cost 1/2 |Q|^2:
+        # their positions solve to 0, apart from the grid's own, and the QR factors of the
+        # grid's own rows come first (`jaxlpm.collocation.padded`)
+        b, c, weights = (jnp.where(pad, 1.0, v) for v in (b, c, weights))
+        K_ip, K_op = (jnp.where(pad[:, None, None], -jnp.eye(k.shape[-1]), k)
+                      for k in (K_ip, K_op))
     n = f.shape[0]
     X = jnp.zeros((n, 6), dtype=X0.dtype)
     U = jnp.zeros((n, 3), dtype=X0.dtype)
@@ -386,7 +397,26 @@ def kkt_law(problem, grid, estimate: bool = True) -> Solution:
         gamma = gamma.at[:, pos].set(gam[:, :len(pos)]).at[:, vel].set(gam[:, len(pos):])
         con.append(cr), stat.append(sr), rc.append(rcb)
     # Fahroo-Ross costate map: gamma_i = -(fT - f0)/2 w_i p(f_i) for defects written X' - AX - BU.
-    costates = -gamma / (half * grid.weights)[:, None]
+    costates = -gamma / (half * weights)[:, None]
     sf, cf = _materialized(jnp.sin(f), jnp.cos(f))
     return _finish("kkt", s, grid, X, U, costates, gamma, jnp.maximum(*con),
                    jnp.maximum(*stat), jnp.minimum(*rc), sf, cf, estimate)
+
+
+_NODE_FIELDS = ("times", "dt_dtau", "node_controls", "node_costates", "state_times",
+                "node_states", "polynomial")
+_NODE_STATS = {"stm": ("node_f", "node_states_th", "costates_th"),
+               "kkt": ("node_f", "node_states_th", "costates_th", "multipliers")}
+
+
+def unpadded(solution: Solution, grid) -> Solution:
+    """A law's solution on a `PaddedGrid` as the solution on its own grid lgl(n): the node
+    rows gathered on the host (`grid_rows`), no program compiled per n."""
+    rows = grid_rows(grid.n, solution.trajectory.grid.n)
+    take = lambda a: jax.device_put(np.asarray(a)[rows])              # noqa: E731
+    tr = solution.trajectory
+    trajectory = dataclasses.replace(tr, grid=grid,
+                                     **{k: take(getattr(tr, k)) for k in _NODE_FIELDS})
+    stats = dict(solution.stats, **{k: take(solution.stats[k])
+                                    for k in _NODE_STATS[solution.method]})
+    return solution.replace(trajectory=trajectory, stats=stats)
