@@ -106,6 +106,27 @@ def test_time_of_interpolant_nodes():
                                atol=1e-15)
 
 
+def test_plan_error_on_padded_grids_equals_the_solution_s_own_states():
+    """`fly` evaluates the plan of a concrete LGL solution on its grid padded to 129 points
+    (`Collocated.padded`: one program for every grid and law up to it): the plan error
+    equals the largest difference between the flown states and the solution's own states
+    at the flight's times. Padding adds only zero-weighted points to the barycentric sums,
+    which `barycentric_interpolate` skips: equal to 1e-12 relative (round-off)."""
+    import importlib
+
+    from jaxlpm import compilation
+    from jaxlpm.verify import fly
+
+    largest_difference = importlib.import_module("jaxlpm.verify.fly")._largest_difference
+    before = len(compilation.events)
+    for n, law in [(9, "kkt"), (33, "stm")]:
+        sol = solve(mei2010.problem(), lgl(n), method=law, throw=False)
+        flight = fly(sol)
+        want = np.asarray(largest_difference(flight.states, sol.states(flight.times)))
+        np.testing.assert_allclose(flight.plan_error, want, rtol=1e-12)
+    assert len([e for e in compilation.events[before:] if e["name"].endswith("_planned")]) <= 1
+
+
 def test_vmapped_j2_flight_flags_a_nan_orbit():
     """A NaN inclination (traced: no Python check sees it) in a vmapped J2 flight: a failed status for
     that member, the other as if flown alone. Members take their own adaptive steps and

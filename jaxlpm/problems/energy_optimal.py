@@ -258,11 +258,13 @@ def cost_scale(problem: EnergyOptimalTransfer):
     return L**2 * (o.k2**3 if problem.model == "linear" else o.mean_motion**3)
 
 
-def transfer_ocp(problem: EnergyOptimalTransfer, grid):
+def transfer_ocp(problem: EnergyOptimalTransfer, grid, s_f=None):
     """The transfer as an `OptimalControlProblem` on `grid`, with the chief sampled at the
-    state rows (`ChiefSamples`, for times and the LVLH map) and an integration flag ok."""
+    state rows (`ChiefSamples`, for times and the LVLH map) and an integration flag ok.
+    s_f: the final anomaly where the caller has it (`final_anomaly`: a J2 chief integration
+    less in the program), None: computed here."""
     o = problem.orbit
-    s_f, ok_f = final_anomaly(problem)
+    s_f, ok_f = final_anomaly(problem) if s_f is None else (s_f, jnp.array(True))
     chief, ok_c = chief_at(problem, s_f, state_tau(grid))
     x0 = model_state(problem, problem.x0, o.f0)
     xf = model_state(problem, problem.xf, s_f)
@@ -337,16 +339,18 @@ def scaled_rows(solution):
     return X, solution.node_controls / control_scale(problem)
 
 
-def collocation_accuracy(problem: EnergyOptimalTransfer, grid, X, U, control_map=None):
+def collocation_accuracy(problem: EnergyOptimalTransfer, grid, X, U, control_map=None,
+                         s_f=None):
     """`jaxlpm.solution.accuracy` stats (SI, LVLH) of the solution with scaled state rows X
     and controls U on `grid` (the units of `transfer_ocp`): the GPOPS-II estimate on the
     check mesh, whose chief is sampled at the check points, the errors mapped to LVLH
     (`lvlh_state` is linear in the state at a given anomaly). control_map: applied to the
-    interpolated control before it is flown (a constant-magnitude engine's direction)."""
+    interpolated control before it is flown (a constant-magnitude engine's direction). s_f:
+    the final anomaly where the caller has it (`transfer_ocp`)."""
     check = check_mesh(grid)
     # the defects and the flight need the model alone: the constraints are checked in SI by
     # `safety_stats`, with their own (denser) drift samples
-    ocp_check, chief_check, _ = transfer_ocp(problem.replace(constraints=()), check)
+    ocp_check, chief_check, _ = transfer_ocp(problem.replace(constraints=()), check, s_f)
     d = collocation_defects(ocp_check, check, grid, X, U, control_map=control_map)
     # the linear model's flight is linear: one Newton step solves it
     flown = check_flight(ocp_check, check, grid, X, U, control_map=control_map,
@@ -453,5 +457,6 @@ def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status
                    constraint_residual=keep(result.constraint_residual),
                    stationarity_residual=keep(result.stationarity_residual),
                    iterations=result.iterations, history=keep(result.history),
-                   **collocation_accuracy(problem, grid, X, U), **(extra or {})),
+                   **collocation_accuracy(problem, grid, X, U, s_f=ocp.sf),
+                   **(extra or {})),
         method=method)

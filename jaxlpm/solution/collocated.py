@@ -17,22 +17,25 @@ interpolated direction at that magnitude (Duan & Dong 2011, §4).
 `flight_control()` gives the control as the function a propagator calls inside its right-hand
 side (`ControlInterpolant`): of the chief's anomaly integrated beside the state for the
 anomaly clocks, of time otherwise; padded to at least PAD_TO points so that one compiled
-propagator serves every grid size up to PAD_TO points (`padded_size`).
+propagator serves every grid size up to PAD_TO points (`jaxlpm.collocation.padded.capacity`).
+`padded()` and `unpadded(grid)` move a trajectory on lgl(n) to and from its `PaddedGrid`.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ..collocation import Grid, barycentric_interpolate
+from ..collocation.padded import MIN_CAPACITY, capacity, grid_rows, pad_grid
 from ..collocation.segments import Mesh
 from ..orbits import th_to_lvlh, true_anomaly_from_time
 
 CLOCKS = ("true-anomaly", "uniform", "tabulated")
 COORDINATES = ("lvlh", "tschauner-hempel")
-PAD_TO = 129          # the flight control's padded size: one compiled propagator up to lgl(129)
+PAD_TO = MIN_CAPACITY
 """The flight control's padded size (points): one compiled propagator serves grids up to
 lgl(129)."""
 _FAR = 10.0           # padded support points sit outside [-1, 1] with zero weight
@@ -93,13 +96,9 @@ class MeshControl:
                      self.magnitude)
 
 
-def padded_size(n: int) -> int:
-    """PAD_TO, or the first of 2 PAD_TO - 1, 4 PAD_TO - 3, ... that holds n points: a few
-    compiled propagators serve every grid."""
-    size = PAD_TO
-    while size < n:
-        size = 2 * size - 1
-    return size
+def take_rows(values, rows):
+    """values[rows] gathered on the host and put back on the device (no compiled program)."""
+    return jax.device_put(np.asarray(values)[rows])
 
 
 def control_interpolant(grid, values, x0, x1, magnitude=0.0, variable="time"):
@@ -108,7 +107,7 @@ def control_interpolant(grid, values, x0, x1, magnitude=0.0, variable="time"):
     if isinstance(grid, Mesh):
         return MeshControl(grid, values, x0, x1, jnp.asarray(magnitude, values.dtype),
                            variable)
-    pad = padded_size(grid.n) - grid.n
+    pad = capacity(grid.n) - grid.n
     return ControlInterpolant(
         tau=jnp.pad(jnp.asarray(grid.points), (0, pad), constant_values=_FAR),
         bary=jnp.pad(jnp.asarray(grid.point_bary), (0, pad)),
@@ -149,6 +148,33 @@ class Collocated:
     magnitude: jax.Array = 0.0
     clock: str = _static("uniform")
     coordinates: str = _static("lvlh")
+
+    NODE_FIELDS = ("times", "dt_dtau", "node_controls", "node_costates", "state_times",
+                   "node_states", "polynomial")
+
+    def padded(self) -> "Collocated":
+        """This trajectory on lgl(n) with its grid a `PaddedGrid` and its node rows in the
+        padded layout (the padding rows a copy of the last: finite, weighted by zero), host
+        arrays: one compiled evaluation serves every grid up to the capacity. Concrete, one
+        trajectory, an LGL `Grid` only."""
+        n = self.grid.n
+        padded = pad_grid(n)
+        rows = grid_rows(n, padded.n)
+
+        def pad(values):
+            values = np.asarray(values)
+            out = np.repeat(values[-1:], padded.n, axis=0)
+            out[rows] = values
+            return out
+
+        return replace(self, grid=padded, **{k: pad(getattr(self, k)) for k in self.NODE_FIELDS})
+
+    def unpadded(self, grid: Grid) -> "Collocated":
+        """The inverse of `padded`: this trajectory on a `PaddedGrid` of `grid` (= lgl(n)) as
+        the trajectory on `grid`, its node rows gathered on the host (no compiled program)."""
+        rows = grid_rows(grid.n, self.grid.n)
+        return replace(self, grid=grid, **{k: take_rows(getattr(self, k), rows)
+                                           for k in self.NODE_FIELDS})
 
     def _support(self, rows):
         """The state rows that carry the polynomial (LG's last row does not)."""

@@ -22,7 +22,6 @@ kkt_law: Mei 2010 §3.2, eq. (12)-(16): the state equations collocated with the 
     eq. (16); the multipliers gamma of eq. (16) are then recovered from its stationarity.
 """
 
-import dataclasses
 import functools
 import operator
 
@@ -38,6 +37,7 @@ from ..status import Status
 from ..problems.energy_optimal import collocation_accuracy
 from ..problems.scaling import length_scale
 from ..solution import Collocated, Solution
+from ..solution.collocated import take_rows
 
 
 
@@ -403,20 +403,14 @@ def kkt_law(problem, grid, estimate: bool = True) -> Solution:
                    jnp.maximum(*stat), jnp.minimum(*rc), sf, cf, estimate)
 
 
-_NODE_FIELDS = ("times", "dt_dtau", "node_controls", "node_costates", "state_times",
-                "node_states", "polynomial")
 _NODE_STATS = {"stm": ("node_f", "node_states_th", "costates_th"),
                "kkt": ("node_f", "node_states_th", "costates_th", "multipliers")}
 
 
 def unpadded(solution: Solution, grid) -> Solution:
     """A law's solution on a `PaddedGrid` as the solution on its own grid lgl(n): the node
-    rows gathered on the host (`grid_rows`), no program compiled per n."""
+    rows gathered on the host (`Collocated.unpadded`), no program compiled per n."""
     rows = grid_rows(grid.n, solution.trajectory.grid.n)
-    take = lambda a: jax.device_put(np.asarray(a)[rows])              # noqa: E731
-    tr = solution.trajectory
-    trajectory = dataclasses.replace(tr, grid=grid,
-                                     **{k: take(getattr(tr, k)) for k in _NODE_FIELDS})
-    stats = dict(solution.stats, **{k: take(solution.stats[k])
+    stats = dict(solution.stats, **{k: take_rows(solution.stats[k], rows)
                                     for k in _NODE_STATS[solution.method]})
-    return solution.replace(trajectory=trajectory, stats=stats)
+    return solution.replace(trajectory=solution.trajectory.unpadded(grid), stats=stats)

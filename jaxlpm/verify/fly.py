@@ -36,12 +36,14 @@ import jax
 import jax.numpy as jnp
 
 from ..compilation import compiled
-from .._validation import require_x64
+from .._validation import is_concrete, require_x64
+from ..collocation import Grid
 from ..constants import J2_EARTH, R_EARTH
 from ..dynamics import elliptic_lvlh_rhs, gravity_acceleration, relative_inertial_rhs
 from ..dynamics.chief import anomaly_rate
 from ..dynamics.propagation import FLIGHT, solve_ode
 from ..orbits import elements_to_state, lvlh_to_relative_inertial, relative_inertial_to_lvlh
+from ..solution import Collocated
 from ..status import Status
 from .inertial import fly_burn
 
@@ -174,6 +176,18 @@ def _planned(solution, ts):
     return solution.states(ts)
 
 
+def _plan(solution):
+    """The solution whose states `_planned` evaluates: a concrete one on an LGL `Grid` with
+    its trajectory padded, its stats and method left out (`Collocated.padded`), so that one
+    program serves every grid and method up to the capacity (mei2010 flies 16 solutions of
+    2 laws on 7 grids)."""
+    tr = solution.trajectory
+    if (isinstance(tr, Collocated) and type(tr.grid) is Grid and tr.grid.scheme == "LGL"
+            and is_concrete(solution) and jnp.ndim(solution.status) == 0):
+        return solution.replace(trajectory=tr.padded(), stats={}, method="")
+    return solution
+
+
 def default_model(problem) -> str:
     """The model a problem's solution is flown on by default: its own (`model`), "linear"
     for the families without one (HCW: the linear model of a circular chief)."""
@@ -211,7 +225,8 @@ def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
         ts, xs, err, status = _fly_lvlh(p.orbit, p.x0, p.xf, sol.duration,
                                         sol.trajectory.flight_control(), j2, r_eq,
                                         model == "linear", n_save)
-        return Flight(ts, xs, err, _largest_difference(xs, _planned(sol, ts)), status, model)
+        return Flight(ts, xs, err, _largest_difference(xs, _planned(_plan(sol), ts)), status,
+                      model)
 
     for _ in range(jnp.ndim(solution.status)):
         one = jax.vmap(one)
