@@ -6,7 +6,9 @@ grids (`jaxlpm.solvers.lq`); "newton" is the Newton-KKT solver of the NLP engine
 ("linear", "two-body", "j2") and grid (LGL, LG, LGR) (`jaxlpm.solvers.transfer`); "augmented-lagrangian" the same Newton-KKT
 iterations inside the augmented Lagrangian, for transfers with safety constraints
 (`jaxlpm.problems.safety`), the only method they take. Each is jit-compiled once per (method,
-grid, options). Default: "augmented-lagrangian" with constraints, else "kkt" for the linear
+grid, options), except that a concrete solve by a law runs on its grid padded to 129 points
+(`jaxlpm.collocation.padded`: one program per law for every grid up to lgl(129), the solution
+gathered back onto its own grid; traced, under jit or vmap, it runs on the grid itself). Default: "augmented-lagrangian" with constraints, else "kkt" for the linear
 model on an LGL grid, "newton" otherwise; default grid lgl(65) (Mei 2010's N = 64).
 
 `Solution.stats`: node_f / node_s (the independent variable at the collocation points, rad),
