@@ -22,6 +22,7 @@ import jax
 import jax.numpy as jnp
 
 from .._validation import require_x64
+from ..compilation import compiled
 from ..dynamics import hcw_matrix
 from ..dynamics.propagation import SHOOTING, solve_ode
 from ..problems.min_time import min_time_ocp, state_scale
@@ -83,8 +84,15 @@ def min_time_shooting(problem, costate0, duration, max_iterations: int = 30,
     STALLED (no decrease along the Newton step) or NONFINITE. A trial point whose integration
     fails is backtracked from; if the line search ends on one, or the guess fails, the
     status is the integrator's (`solve_ode`: MAX_ITERATIONS when out of steps, else
-    NONFINITE), never an exception. ValueError unless float64 is enabled."""
+    NONFINITE), never an exception. ValueError unless float64 is enabled. Compiled once per
+    (max_iterations, tol) and kept on disk (`jaxlpm.compilation.compiled`)."""
     require_x64()
+    return _shooting(problem, costate0, duration, max_iterations, tol)
+
+
+@compiled(static_argnames=("max_iterations", "tol"))
+def _shooting(problem, costate0, duration, max_iterations, tol):
+    """`min_time_shooting`."""
     n = problem.orbit.mean_motion
     params = min_time_ocp(problem, duration).params
     jac = jax.jacfwd(shooting_residual)
