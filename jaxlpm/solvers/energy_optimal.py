@@ -51,7 +51,8 @@ from .transfer import newton_transfer
 DEFAULT_POINTS = 65            # Mei 2010's N = 64
 MIN_LAW_POINTS = 4   # the KKT law needs interior nodes beyond the 2 velocity conditions per axis
 MIN_NEWTON_POINTS = {"LGL": 4, "LG": 3, "LGR": 3}
-_LAWS = {"stm": compiled(stm_law), "kkt": compiled(kkt_law, static_argnames="estimate")}
+_LAWS = {"stm": compiled(stm_law),
+         "kkt": compiled(kkt_law, static_argnames=("estimate", "multipliers"))}
 
 
 @compiled(static_argnames="options")

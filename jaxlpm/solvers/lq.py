@@ -276,13 +276,14 @@ def _second_order_blocks(e, f):
     return (K_ip, jnp.array([[0.0, 2.0], [-2.0, 0.0]])), (K_op, jnp.zeros((1, 1)))
 
 
-def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active):
+def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active, multipliers=True):
     """Collocated second-order block (Mei 2010 eq. 12-16 for one block of m axes).
 
     Unknowns: interior nodal positions z. V = Dh Q, U = (Dh V - K Q - G V)/b (affine in z).
     Constraints: (Dh Q)_0 = v0, (Dh Q)_N = vT, and U_c = 0 for a removed axis c.
     Cost: 1/2 sum_i c_i |U_i|^2 over the existing axes.
-    Returns (Q, V, U, gamma, constraint residual, stationarity residual, rcond).
+    Returns (Q, V, U, gamma, constraint residual, stationarity residual, rcond);
+    multipliers=False: gamma and the stationarity residual zero (not computed).
     """
     n, m = K.shape[0], K.shape[1]
     eye_m, eye_n = jnp.eye(m), jnp.eye(n)
@@ -332,6 +333,9 @@ def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active):
         (Dh @ Q - V).ravel(), (Dh @ V - jnp.einsum("ica,ia->ic", K, Q) - V @ G.T
                               - b[:, None] * U).ravel()])))
 
+    if not multipliers:
+        return Q, V, U, jnp.zeros((n, 2 * m), z.dtype), con_res, 0.0 * con_res, rcond
+
     # multipliers of eq. (16): dL/dU = 0 gives gamma_V on existing axes; the interior-velocity
     # stationarity gives gamma_Q inside; the interior-position stationarity (overdetermined,
     # consistent at the optimum) gives gamma_Q at the ends and gamma_V on removed axes.
@@ -359,9 +363,11 @@ def _kkt_block(Dh, K, G, b, c, q0, qT, v0, vT, active):
     return Q, V, U, jnp.concatenate([gQ, gV], axis=1), con_res, stat_res, rcond
 
 
-def kkt_law(problem, grid, estimate: bool = True) -> Solution:
+def kkt_law(problem, grid, estimate: bool = True, multipliers: bool = True) -> Solution:
     """Mei 2010 eq. (12)-(16) in 3D (the paper's "SEQ" law); see the module docstring.
-    estimate=False: without the error estimate in `stats` (static)."""
+    estimate=False: without the error estimate in `stats`; multipliers=False: without the
+    multipliers of eq. (16) (zero costates): a warm start's law, a smaller program (both
+    static)."""
     s = _setup(problem, grid)
     e, rho, half, f = s["e"], s["rho"], s["half"], s["f"]
     Dh = grid.D / half
@@ -390,7 +396,8 @@ def kkt_law(problem, grid, estimate: bool = True) -> Solution:
         # QR, triangular solves and SVD: member by member under vmap, derivatives included
         # (a batched jaxlib LAPACK call can deadlock XLA's CPU thread pool, `member_by_member`)
         block = member_by_member(functools.partial(_kkt_block,
-                                                   active=tuple(bool(a) for a in ax)))
+                                                   active=tuple(bool(a) for a in ax),
+                                                   multipliers=multipliers))
         Q, V, Ub, gam, cr, sr, rcb = block(Dh, K, G, b, c, X0[pos], XT[pos], X0[vel], XT[vel])
         X = X.at[:, pos].set(Q).at[:, vel].set(V)
         U = U.at[:, pos].set(Ub)

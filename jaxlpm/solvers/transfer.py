@@ -29,14 +29,14 @@ from ..solution import Solution
 
 def _warm_start(problem, ocp, grid):
     """z0 from the linear model's KKT solution on the same grid, mapped node by node (same
-    tau) to the model's state. On LGL grids that is Mei 2010's KKT law itself (null-space QR,
-    milliseconds); on LG and LGR grids the linear transcription's QP, solved by one dense
-    Newton-KKT step. Also returns whether that linear problem is singular: its boundary
+    tau) to the model's state. On LGL grids that is Mei 2010's KKT law itself, without its
+    multipliers or estimate (null-space QR, milliseconds); on LG and LGR grids the linear
+    transcription's QP, solved by one dense Newton-KKT step. Also returns whether that linear problem is singular: its boundary
     states are not reachable with the thrust axes given (the law's status SINGULAR; on LG and
     LGR a step that leaves the linear constraints unmet)."""
     linear = problem.replace(model="linear", constraints=())
     if isinstance(grid, Grid) and grid.scheme == "LGL":
-        law = kkt_law(linear, grid, estimate=False)
+        law = kkt_law(linear, grid, estimate=False, multipliers=False)
         X_lvlh, U_si = law.node_states, law.node_controls
         singular = law.status == Status.SINGULAR
     else:
