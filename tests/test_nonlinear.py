@@ -176,7 +176,7 @@ def test_gravity_difference_derivatives_are_those_of_the_field(j2):
     Jacobian at r + dr and r) equal autodiff of the plain difference a(r + dr) - a(r): first
     derivatives in r, dr, mu, j2, r_eq and the second in dr (Newton-KKT's Hessian). Both
     are the same formulas in another order: agreement to ~1e-12 of each derivative's size
-    (the r derivative J(r + dr) - J(r) cancels in both alike, to eps |r| / |dr| ~ 1e-12 at
+    (the r derivative J(r + dr) - J(r) cancels in both alike, to eps |r| / |dr| ~ 2e-13 at
     10 km). j2 = None: two-body alone, equal to j2 = 0."""
     rng = np.random.default_rng(7)
     r = rng.normal(size=3)

@@ -96,7 +96,7 @@ def _difference(unit, encke):
     formula's, from a far smaller program: Newton-KKT differentiates the dynamics twice, and
     autodiff through the Encke formula's powers made up 43 % of the two-body Newton-KKT
     program (issue 21). The J_g(r) r_dot term cancels where r_dot is not zero (the chief's
-    position moves under a parameter: eps |r| / |dr| relative, 1e-13 at 1 km); r_dot is zero
+    position moves under a parameter: eps |r| / |dr| relative, ~1e-12 at 1 km); r_dot is zero
     in the solvers' Newton systems."""
 
     @jax.custom_jvp
