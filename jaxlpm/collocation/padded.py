@@ -13,7 +13,8 @@ so that the first and the last row are the grid's own ends, the padding takes no
 quadrature, a barycentric interpolant (`barycentric_interpolate` skips zero weights), a
 derivative or an integral, and n is an array leaf: the program's shapes depend on M alone.
 Where the padding's own unknowns must stay decoupled from the grid's (a least-squares solve),
-the code reads `padding(grid)`. `grid_rows(n, M)` gathers a padded result back onto lgl(n).
+the code reads `padding(grid)`. `pad_rows` puts node values in the padded layout and
+`grid_rows(n, M)` gathers a padded result back onto lgl(n).
 """
 
 import dataclasses
@@ -62,6 +63,16 @@ def grid_rows(n: int, m: int) -> np.ndarray:
     return rows
 
 
+def pad_rows(values, m: int, fill=None) -> np.ndarray:
+    """lgl(n)'s node values (n, ...) in the rows of a capacity-m padded grid (host array); the
+    padding rows hold `fill`, or (None) a copy of the last row (finite, weighted by zero)."""
+    values = np.asarray(values)
+    out = (np.repeat(values[-1:], m, axis=0) if fill is None
+           else np.full((m, *values.shape[1:]), fill, values.dtype))
+    out[grid_rows(values.shape[0], m)] = values
+    return out
+
+
 @functools.lru_cache(maxsize=None)
 def pad_grid(n: int, m: int | None = None) -> PaddedGrid:
     """lgl(n) as a `PaddedGrid` of capacity m (default `capacity(n)`); host (NumPy) arrays."""
@@ -70,20 +81,16 @@ def pad_grid(n: int, m: int | None = None) -> PaddedGrid:
         raise ValueError(f"capacity {m} is smaller than the grid's {n} points")
     grid, rows = lgl(n), grid_rows(n, m)
 
-    def vector(values, fill):
-        out = np.full(m, fill)
-        out[rows] = values
-        return out
-
     def matrix(values):
         out = np.zeros((m, m))
         out[np.ix_(rows, rows)] = values
         return out
 
-    points = vector(grid.points, 1.0)
-    ops = dict(points=points, weights=vector(grid.weights, 0.0), support=points,
-               D=matrix(grid.D), support_bary=vector(grid.support_bary, 0.0),
-               point_bary=vector(grid.point_bary, 0.0), integration=matrix(grid.integration),
+    points = pad_rows(grid.points, m, 1.0)
+    ops = dict(points=points, weights=pad_rows(grid.weights, m, 0.0), support=points,
+               D=matrix(grid.D), support_bary=pad_rows(grid.support_bary, m, 0.0),
+               point_bary=pad_rows(grid.point_bary, m, 0.0),
+               integration=matrix(grid.integration),
                live=np.asarray(n, np.int32))
     for arr in ops.values():
         arr.setflags(write=False)

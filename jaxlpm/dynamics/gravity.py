@@ -38,17 +38,6 @@ def _j2_shape(r, s):
     return (1.0 - 5.0 * s**2) * r + jnp.array([0.0, 0.0, 2.0]) * r[2]
 
 
-def _two_body_unit(r):
-    """-r / |r|^3: the two-body acceleration per unit mu."""
-    return -r / jnp.linalg.norm(r) ** 3
-
-
-def _j2_unit(r):
-    """-(3/2) Q(r) / |r|^5: the J2 acceleration per unit mu J2 R_eq^2 (`j2_acceleration`)."""
-    rn = jnp.linalg.norm(r)
-    return -1.5 * _j2_shape(r, r[2] / rn) / rn**5
-
-
 def j2_acceleration(r, mu, j2, r_eq):
     """J2 acceleration -(3/2) mu J2 R_eq^2 Q(r) / r^5 (m/s^2), Q as in `_j2_shape`."""
     rn = jnp.linalg.norm(r)
@@ -74,14 +63,15 @@ def _norms(r, dr):
 
 
 def _two_body_encke(r, dr):
-    """`_two_body_unit`(r + dr) - `_two_body_unit`(r), differenced exactly."""
+    """a(r + dr) - a(r) of `two_body_acceleration` per unit mu, differenced exactly."""
     rn, Rn, dR = _norms(r, dr)
     return -(dr / Rn**3 + r * _inv_pow_diff(Rn, rn, dR, 3))
 
 
 def _j2_encke(r, dr):
-    """`_j2_unit`(r + dr) - `_j2_unit`(r), differenced exactly: Delta(P Q) = P' Delta Q +
-    (Delta P) Q with P = 1/r^5, and Delta s of the latitude term s = z/r likewise."""
+    """a(r + dr) - a(r) of `j2_acceleration` per unit mu J2 R_eq^2, differenced exactly:
+    Delta(P Q) = P' Delta Q + (Delta P) Q with P = 1/r^5, and Delta s of the latitude term
+    s = z/r likewise."""
     rn, Rn, dR = _norms(r, dr)
     rp = r + dr
     s, sp = r[2] / rn, rp[2] / Rn
@@ -118,8 +108,9 @@ def _difference(unit, encke):
     return difference
 
 
-_two_body_difference = _difference(_two_body_unit, _two_body_encke)
-_j2_difference = _difference(_j2_unit, _j2_encke)
+# the fields per unit mu (and J2 R_eq^2): the accelerations with unit coefficients
+_two_body_difference = _difference(lambda r: two_body_acceleration(r, 1.0), _two_body_encke)
+_j2_difference = _difference(lambda r: j2_acceleration(r, 1.0, 1.0, 1.0), _j2_encke)
 
 
 def gravity_acceleration_difference(r, dr, mu, j2, r_eq):

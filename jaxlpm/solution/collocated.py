@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..collocation import Grid, barycentric_interpolate
-from ..collocation.padded import MIN_CAPACITY, capacity, grid_rows, pad_grid
+from ..collocation.padded import MIN_CAPACITY, capacity, grid_rows, pad_grid, pad_rows
 from ..collocation.segments import Mesh
 from ..orbits import th_to_lvlh, true_anomaly_from_time
 
@@ -157,17 +157,9 @@ class Collocated:
         padded layout (the padding rows a copy of the last: finite, weighted by zero), host
         arrays: one compiled evaluation serves every grid up to the capacity. Concrete, one
         trajectory, an LGL `Grid` only."""
-        n = self.grid.n
-        padded = pad_grid(n)
-        rows = grid_rows(n, padded.n)
-
-        def pad(values):
-            values = np.asarray(values)
-            out = np.repeat(values[-1:], padded.n, axis=0)
-            out[rows] = values
-            return out
-
-        return replace(self, grid=padded, **{k: pad(getattr(self, k)) for k in self.NODE_FIELDS})
+        padded = pad_grid(self.grid.n)
+        return replace(self, grid=padded, **{k: pad_rows(getattr(self, k), padded.n)
+                                             for k in self.NODE_FIELDS})
 
     def unpadded(self, grid: Grid) -> "Collocated":
         """The inverse of `padded`: this trajectory on a `PaddedGrid` of `grid` (= lgl(n)) as
