@@ -205,3 +205,37 @@ def small_triangular_solve(r, b, lower):
         acc = b[i] - sum(r[i, j] * x[j] for j in known) if known else b[i]
         x[i] = acc / r[i, i]
     return jnp.stack(x)
+
+
+@sequential_when_batched
+def block_tridiagonal_solve(diag, sub, b):
+    """Solve A x = b for symmetric positive definite block-tridiagonal A: diag (m, k, k) its
+    diagonal blocks A_ii, sub (m - 1, k, k) the blocks below them A_{i+1,i}, b (m, k). Block
+    Cholesky (L_ii L_ii^T = A_ii - L_{i,i-1} L_{i,i-1}^T, L_{i+1,i} = A_{i+1,i} L_ii^-T; Golub
+    & Van Loan 2013, §4.5.3), then the two block substitutions: m k^3 work instead of
+    (m k)^3 / 3. x is NaN where A is not positive definite (the factorisation's NaNs
+    propagate), as `cholesky_solve`'s."""
+    tri = jax.scipy.linalg.solve_triangular
+
+    def step(carry, blocks):
+        L_prev, y_prev = carry
+        a, below, rhs = blocks
+        l_below = tri(L_prev, below.T, lower=True).T            # A_{i,i-1} L_{i-1}^-T
+        L = jnp.linalg.cholesky(a - l_below @ l_below.T)
+        y = tri(L, rhs - l_below @ y_prev, lower=True)
+        return (L, y), (L, l_below, y)
+
+    first = jnp.linalg.cholesky(diag[0])
+    y0 = tri(first, b[0], lower=True)
+    _, (Ls, lows, ys) = jax.lax.scan(step, (first, y0), (diag[1:], sub, b[1:]))
+    Ls = jnp.concatenate([first[None], Ls])
+    ys = jnp.concatenate([y0[None], ys])
+
+    def back(x_next, blocks):
+        L, l_next, y = blocks                  # L_ii, L_{i+1,i}, y_i
+        x = tri(L.T, y - l_next.T @ x_next, lower=False)
+        return x, x
+
+    x_last = tri(Ls[-1].T, ys[-1], lower=False)
+    _, xs = jax.lax.scan(back, x_last, (Ls[:-1], lows, ys[:-1]), reverse=True)
+    return jnp.concatenate([xs, x_last[None]])

@@ -212,6 +212,15 @@ class Mesh:
         return jnp.zeros((k * m, self.n_rows), values.dtype).at[
             seg * m + i, seg * self._stride + j].set(values)
 
+    def differentiate(self, values):
+        """D @ values for values (n_rows, ...), segment by segment: each segment grid's D on
+        its polynomial's rows, over h_k (K n_k p work, not (K n_k) n_rows)."""
+        k, p = self.n_segments, self._support_length
+        rows = values[np.arange(k)[:, None] * self._stride + np.arange(p)[None]]
+        out = jnp.einsum("ij,kj...->ki...", jnp.asarray(self.segment.D), rows)
+        out = out / self._half.reshape((k,) + (1,) * (out.ndim - 1))
+        return out.reshape((k * self.segment.n,) + values.shape[1:])
+
     quadrature = None      # (E (q, n_rows), W (q, n)) for LG: E X - h W F = 0
     linkage = None         # L (p, n_rows) for LGL: L X = 0
 

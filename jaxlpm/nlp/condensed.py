@@ -39,10 +39,9 @@ import numpy as np
 
 from ..collocation.segments import LGLMesh, LGMesh
 from ..linalg import cholesky_solve, complete_qr, small_triangular_solve
-from .transcription import (collocated_rows, equality, lagrangian, n_state_rows,
-                                      n_variables, objective, point_hessians,
-                                      point_indices, pointwise_jacobian, support_rows,
-                                      unpack)
+from .transcription import (collocated_rows, differentiate, equality, lagrangian,
+                            n_state_rows, n_variables, objective, point_hessians,
+                            point_indices, pointwise_jacobian, unpack)
 
 
 _NO_VELOCITY = np.array([0, 1, 2, 6, 7, 8])      # the r and u rows of a point block (r, v, u)
@@ -107,7 +106,7 @@ class CondensedSecondOrder:
         h, q = coef[:2]
         c_r = r[:6 * g.n].reshape(g.n, 6)[:, :3]
         bc = r[r.size - 12:]
-        dV_c = (g.D @ dR[support_rows(g)] + c_r) / (h * q[:, None])
+        dV_c = (differentiate(g, dR) + c_r) / (h * q[:, None])
         dV = jnp.zeros((self.n_rows, 3), dR.dtype).at[collocated_rows(g)].set(dV_c)
         if g.scheme == "LG":
             dV = dV.at[0].set(-bc[3:6]).at[-1].set(-bc[9:12])
@@ -124,11 +123,11 @@ class CondensedSecondOrder:
         n = g.n
         c = r[:6 * n].reshape(n, 6)
         bc = r[r.size - 12:]
-        col, sup = collocated_rows(g), support_rows(g)
+        col = collocated_rows(g)
         dX = self._states(dR, r, coef)
         dV = dX[:, 3:]
         dd = jnp.einsum("iab,ib->ia", Gd, dX[col])
-        dU = (g.D @ dV[sup] - h * dd + c[:, 3:]) / (h * b[:, None])
+        dU = (differentiate(g, dV) - h * dd + c[:, 3:]) / (h * b[:, None])
         if g.scheme == "LGL":
             unmet = jnp.stack([dV[0] + bc[3:6], dV[-1] + bc[9:12]])
         elif g.scheme == "LGR":
@@ -197,7 +196,7 @@ class CondensedSecondOrder:
         def direction(dR_int):
             dR = jnp.zeros((self.n_rows, 3), dtype).at[1:-1].set(dR_int.reshape(m, 3))
             dX = self._states(dR, zero_r, coef)
-            return dX, g.D @ dX[support_rows(g), 3:] / (h * b[:, None])
+            return dX, differentiate(g, dX[:, 3:]) / (h * b[:, None])
 
         return jax.vmap(direction, out_axes=-1)(Z.T)
 

@@ -61,6 +61,14 @@ def support_rows(grid):
     return {"LGL": slice(None), "LG": slice(None, -1), "LGR": slice(None)}[grid.scheme]
 
 
+def differentiate(grid, values):
+    """D @ values[support rows] for values (n_state_rows, ...): the derivative in tau at the
+    collocation points of the state polynomial through them (a `Mesh` segment by segment)."""
+    if isinstance(grid, Mesh):
+        return grid.differentiate(values)
+    return grid.D @ values[support_rows(grid)]
+
+
 def quadrature_rows(grid):
     """(E (q, rows), W (q, n)) of the Gauss quadrature conditions E X - h W F = 0: LG's
     X_f - X_0 - h sum_k w_k F_k, one per segment of an `LGMesh`; None for LGL and LGR."""
@@ -182,7 +190,7 @@ def defects(z, ocp: OptimalControlProblem, grid):
     X, U, sf = unpack(z, ocp, grid)
     h = 0.5 * (sf - ocp.s0)
     F = _pointwise(ocp.dynamics, ocp, grid, X, U, sf)
-    rows = [grid.D @ X[support_rows(grid)] - h * F]
+    rows = [differentiate(grid, X) - h * F]
     quad, link = quadrature_rows(grid), linkage_rows(grid)
     if quad is not None:
         E, W = quad

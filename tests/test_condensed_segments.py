@@ -1,0 +1,106 @@
+"""The condensed Newton-KKT step on many-segment LGR meshes (`jaxlpm.nlp.condensed_segments`):
+its local basis and block-banded reduced Hessian give the step of the dense condensed solve
+and of the dense KKT LU; the block-tridiagonal Cholesky against a dense solve; a mesh's
+segment-by-segment D against its matrix."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxlpm as lpm
+from jaxlpm.cases.mei2010 import dispersion
+from jaxlpm.linalg import block_tridiagonal_solve
+from jaxlpm.nlp import CondensedSecondOrder, DenseKKT
+from jaxlpm.nlp.condensed_segments import (SegmentedCondensed, condensed_linear_algebra,
+                                            segments_apply)
+from jaxlpm.nlp.transcription import equality, objective
+from jaxlpm.solvers.transfer import linear_warm_start, transfer_ocp
+
+
+def _block_tridiagonal(rng, m, k):
+    """A random symmetric positive definite block-tridiagonal matrix: (dense, diag, sub)."""
+    A = np.zeros((m * k, m * k))
+    for i in range(m):
+        block = rng.normal(size=(k, k))
+        A[i * k:(i + 1) * k, i * k:(i + 1) * k] = block + block.T + 4.0 * k * np.eye(k)
+        if i:
+            below = rng.normal(size=(k, k))
+            A[i * k:(i + 1) * k, (i - 1) * k:i * k] = below
+            A[(i - 1) * k:i * k, i * k:(i + 1) * k] = below.T
+    diag = np.stack([A[i * k:(i + 1) * k, i * k:(i + 1) * k] for i in range(m)])
+    sub = np.stack([A[(i + 1) * k:(i + 2) * k, i * k:(i + 1) * k] for i in range(m - 1)])
+    return A, diag, sub
+
+
+def test_block_tridiagonal_solve_is_a_dense_solve():
+    """Against LAPACK's dense solve of the same matrix, alone and vmapped (member by member),
+    to round-off (the matrix is diagonally dominant: condition number below 10); NaN for a
+    matrix that is not positive definite."""
+    rng = np.random.default_rng(1)
+    A, diag, sub = _block_tridiagonal(rng, 5, 4)
+    b = rng.normal(size=(2, 5, 4))
+    x = np.asarray(jax.jit(jax.vmap(block_tridiagonal_solve, (None, None, 0)))(diag, sub, b))
+    for xi, bi in zip(x, b):
+        np.testing.assert_allclose(xi.ravel(), np.linalg.solve(A, bi.ravel()), atol=1e-13)
+    bad = diag.copy()
+    bad[3] = -bad[3]
+    assert np.all(np.isnan(np.asarray(block_tridiagonal_solve(bad, sub, b[0]))[3:]))
+
+
+@pytest.mark.parametrize("scheme", ["LGR", "LG", "LGL"])
+def test_mesh_differentiate_is_its_block_matrix(scheme):
+    """`Mesh.differentiate` (segment by segment) equals D @ values with the mesh's block D,
+    on unequal segments, to round-off."""
+    mesh = lpm.make_mesh(scheme, 3, 5, breaks=[-1.0, -0.3, 0.2, 1.0])
+    values = np.random.default_rng(2).normal(size=(mesh.n_rows, 6))
+    ref = np.asarray(mesh.D) @ values
+    np.testing.assert_allclose(np.asarray(mesh.differentiate(jnp.asarray(values))), ref,
+                               atol=1e-13 * np.max(np.abs(ref)))
+
+
+@pytest.fixture(scope="module")
+def member():
+    """A two-body transfer of the robustness dispersion (e 0.6, 2.3 revolutions)."""
+    batch = dispersion(jax.random.key(3), 4, "two-body")
+    return jax.tree_util.tree_map(lambda x: x[1] if np.ndim(x) and np.shape(x)[0] == 4 else x,
+                                  batch)
+
+
+@pytest.mark.parametrize("segments, points", [(5, 6)])
+def test_the_segmented_step_is_the_condensed_and_the_dense_step(member, segments, points):
+    """At the warm start, with the first multipliers of the dense condensed solve (so the
+    point Hessians hold the two-body dynamics' second derivatives), the three linear algebras
+    solve the same KKT system, with and without regularisation dw; the null-space step of a
+    positive definite reduced Hessian does not depend on the basis, so steps and multipliers
+    agree to the system's round-off. The dense LU and the dense condensed solve agree with
+    each other to about 1e-11 of the step here, so 1e-9 is asserted. 5 segments (odd)
+    exercise the band's identity block; the refinement tests run even counts
+    (tests/test_meshes.py checks whole refined solves on LGR meshes, which take this solve
+    from 4 segments, against the dense LG and LGL ones)."""
+    mesh = lpm.lgr_mesh(segments, points)
+    ocp, _, _ = transfer_ocp(member, mesh)
+    assert segments_apply(ocp, mesh)
+    assert isinstance(condensed_linear_algebra(ocp, mesh), SegmentedCondensed)
+    z, _ = linear_warm_start(member, ocp, mesh)
+
+    @jax.jit
+    def steps(z):
+        lam = CondensedSecondOrder(ocp, mesh, z).first_multipliers(z)
+        g, c = jax.grad(objective)(z, ocp, mesh), equality(z, ocp, mesh)
+        out = []
+        for cls in (DenseKKT, CondensedSecondOrder, SegmentedCondensed):
+            la = cls(ocp, mesh, z)
+            prep = la.prepare(z, lam)
+            H = la.hessian(prep, z, lam)
+            out.append([la.solve(prep, H, g, c, dw, 0.0) for dw in (0.0, 0.5)])
+        return out
+
+    (dense, cond, seg) = steps(z)
+    for k in range(2):
+        p_ref, lam_ref, ok = dense[k]
+        assert bool(ok)
+        for p, lam_new, ok in (cond[k], seg[k]):
+            assert bool(ok)
+            np.testing.assert_allclose(p, p_ref, atol=1e-9 * np.max(np.abs(p_ref)))
+            np.testing.assert_allclose(lam_new, lam_ref, atol=1e-9 * np.max(np.abs(lam_ref)))
