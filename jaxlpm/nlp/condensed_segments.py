@@ -3,7 +3,7 @@ segment.
 
 `CondensedSecondOrder` writes the interior positions as p_0 + Z y with Z a dense orthonormal
 null-space basis, so its reduced Hessian T^T H T is dense: on 16 x 16 LGR points forming it
-costs about 2 GFLOP per Newton iteration, 60 ms of a member's solve. On an `LGRMesh`
+costs about 2 GFLOP, some 60 ms, per Newton iteration. On an `LGRMesh`
 (Garg et al. 2010's multi-interval Radau method) the same step has a local basis. The only
 condition left on the interior positions (`CondensedSecondOrder`) is the initial velocity,
 dV(0) = (D dR)_0 / (h q_0): one row of the first segment's D per axis. Solve it for one
@@ -12,9 +12,8 @@ pivot row p of the first segment (the largest |D_0p|, so every other coefficient
 segment t changes the velocities of segment t (and of t - 1 at its first row) and through
 them the controls of segments t - 1 and t (t - 2 at its first row). So group the unknowns in
 blocks b_t = the rows t n + 1 .. t n + n (n points per segment, the last the next segment's
-first row):
-block t touches the points of segments t - 1, t and t + 1 only, and the reduced Hessian is
-block pentadiagonal, i.e. block tridiagonal in pairs of blocks.
+first row): block t touches the points of segments t - 1, t and t + 1 only, and the reduced
+Hessian is block pentadiagonal, i.e. block tridiagonal in pairs of blocks.
 
 Blocks three apart touch no common point, so one evaluation of the step's linear map on the
 sum of every third block's unit displacement gives all their columns of T at once (the
@@ -174,7 +173,7 @@ class SegmentedCondensed(CondensedSecondOrder):
         _, _, local, Tw = H
         zero_r = self._zero_r(c.dtype)
         w0 = jnp.zeros(self.live.size, c.dtype)
-        T_w, T_vjp = jax.vjp(lambda w: self._step(prep, w, zero_r), w0)
+        _, T_vjp = jax.vjp(lambda w: self._step(prep, w, zero_r), w0)
         p0, p0_vjp = jax.vjp(lambda r: self._particular(prep, r), c)
         local = jax.lax.cond(dw > 0, lambda: local + dw * jnp.einsum("sixk,sixl->skl", Tw, Tw),
                              lambda: local)
@@ -185,7 +184,6 @@ class SegmentedCondensed(CondensedSecondOrder):
         w = block_tridiagonal_solve(pair, below, rhs).ravel()[:self.live.size]
         p = self._step(prep, w, zero_r) + p0
         lam_new = p0_vjp(g + self._hessian_times(H, dw, p))[0]
-        del T_w
         return p, lam_new, jnp.all(jnp.isfinite(p)) & jnp.all(jnp.isfinite(lam_new))
 
 
