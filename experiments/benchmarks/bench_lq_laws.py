@@ -237,7 +237,8 @@ def main(argv=None):
     for name in LAWS:
         block(solve(prob, grid, method=name, throw=False))
         single[name]["solve_public_api"] = timed(
-            lambda: block(solve(prob, grid, method=name, throw=False)), min_repeats=10, budget_s=1.0)
+            lambda: block(solve(prob, grid, method=name, throw=False)), min_repeats=10,
+            budget_s=1.0)
     res["single"] = single
 
     # 2. batched ----------------------------------------------------------------------------

@@ -8,7 +8,8 @@ and `jaxlpm.collocation`).
 - `newton`: the Newton-KKT (SQP) iteration with the dense KKT solve, continuation, implicit
   differentiation; `condensed`: the null-space (condensed) KKT solve for fully actuated
   second-order problems; `condensed_segments`: the same step on many-segment LGR meshes,
-  its reduced Hessian block-banded (`SegmentedCondensed`; `condensed_linear_algebra` picks the class).
+  its reduced Hessian block-banded (`SegmentedCondensed`; `condensed_linear_algebra` picks
+  the class).
 - `augmented_lagrangian`: path inequalities/equalities and final-s bounds around the Newton
   iteration.
 - `homotopy`: the smoothed-L1 (energy-to-fuel) continuation on a condensed linear problem.

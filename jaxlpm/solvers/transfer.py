@@ -32,10 +32,10 @@ def _warm_start(problem, ocp, grid):
     tau) to the model's state. On LGL grids that is Mei 2010's KKT law itself, without its
     multipliers or estimate (null-space QR, milliseconds); on LG and LGR grids and meshes the
     linear transcription's QP, solved by one Newton-KKT step (condensed where `_condenses`:
-    a whole two-body solve on 4 x 16 LGR points then takes 9 ms instead of 26 ms with the
-    dense LU). Also returns whether that linear problem is singular: its boundary states are
-    not reachable with the thrust axes given (the law's status SINGULAR; on LG and LGR a step
-    that leaves the linear constraints unmet)."""
+    a two-body Newton-KKT solve on 4 x 16 LGR points, without its error estimate, then takes
+    9 ms instead of 26 ms with the dense LU). Also returns whether that linear problem is
+    singular: its boundary states are not reachable with the thrust axes given (the law's
+    status SINGULAR; on LG and LGR a step that leaves the linear constraints unmet)."""
     linear = problem.replace(model="linear", constraints=())
     if isinstance(grid, Grid) and grid.scheme == "LGL":
         law = kkt_law(linear, grid, estimate=False, multipliers=False)
