@@ -1,5 +1,8 @@
 """Small dense linear algebra shared by the solvers."""
 
+import functools
+import operator
+
 import jax
 import jax.numpy as jnp
 
@@ -239,3 +242,49 @@ def block_tridiagonal_solve(diag, sub, b):
     x_last = tri(Ls[-1].T, ys[-1], lower=False)
     _, xs = jax.lax.scan(back, x_last, (Ls[:-1], lows, ys[:-1]), reverse=True)
     return jnp.concatenate([xs, x_last[None]])
+
+
+# Small matrices as nested lists (rows) of node arrays, per-problem scalars or Python numbers
+# (`jaxlpm.dynamics.stm.ya_entries`); the Python number 0 is a structural zero, and products
+# with it are skipped. Under vmap each entry is one (batch, n) or (batch,) array, so every
+# product below is a fused multiply-add over the batch and the nodes (no small dots, no
+# (k, k, n) arrays, which XLA:CPU runs slowly).
+
+def structural_zero(x) -> bool:
+    """Whether x is the Python number 0 (a structural zero of a nested-list matrix)."""
+    return isinstance(x, (int, float)) and x == 0
+
+
+def entries_sum(terms):
+    """Sum of arrays or numbers; the structural zero 0.0 when there are none."""
+    return functools.reduce(operator.add, terms) if terms else 0.0
+
+
+def entries_mv(M, v):
+    """M v for a nested-list M and a list v, skipping structural zeros."""
+    return [entries_sum([m * x for m, x in zip(row, v)
+                         if not (structural_zero(m) or structural_zero(x))]) for row in M]
+
+
+def entries_transpose(M):
+    """M^T of a nested-list matrix."""
+    return [list(col) for col in zip(*M)]
+
+
+def entries_mm(A, B):
+    """A B of nested-list matrices, skipping structural zeros."""
+    return entries_transpose([entries_mv(A, col) for col in entries_transpose(B)])
+
+
+def materialized(*xs):
+    """The arrays xs (equal shapes), each computed once and stored.
+
+    XLA:CPU has no multi-output loop fusion and fuses a unary producer (sin, cos) into every
+    consumer fusion, so a node array that feeds dozens of fusions has its whole expression,
+    transcendentals included, re-evaluated in each; `lax.optimization_barrier` is removed
+    before fusion on CPU. A product with the identity (exact in floating point for finite
+    values; a non-finite one makes the others NaN) is a fusion boundary: its operands are
+    evaluated once into a buffer.
+    """
+    stacked = jnp.stack(xs)
+    return tuple(jnp.tensordot(jnp.eye(len(xs), dtype=stacked.dtype), stacked, axes=1))

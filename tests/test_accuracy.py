@@ -145,6 +145,45 @@ def test_estimate_on_the_two_body_model():
     assert np.all(miss <= 3.0 * est) and np.all(est <= 3.0 * plan), (est, miss, plan)
 
 
+@pytest.mark.parametrize("e, grid", [(0.0, "lgl33"), (0.6, "mesh4x12")])
+def test_linear_flight_by_the_transition_matrix(e, grid):
+    """The linear model's check flight by the variation of constants with Yamanaka &
+    Ankersen's transition matrix (`separable_flight`, 3 revolutions) against the collocation
+    flight of the same control (`check_flight`: one Newton step on each 12-point piece) and
+    scipy's DOP853 (rtol 1e-13) on the same interpolated control: it is as far from scipy as
+    a hundredth of the estimate, plus 1e-9 of the largest state (the interior rows carry the
+    piece's integration matrix's error, order 12 in its length: 2e-9 of 13 units for the
+    circular transfer, whose estimate is 1e-11), and it gives the collocation flight's
+    estimate within that."""
+    from scipy.integrate import solve_ivp
+
+    from jaxlpm.nlp.accuracy import check_flight, check_mesh, separable_flight
+    from jaxlpm.problems.energy_optimal import scaled_rows, transfer_ocp, ya_kernel
+    mesh = {"lgl33": lpm.lgl(33), "mesh4x12": lpm.lgr_mesh(4, 12)}[grid]
+    problem = transfer(e, 3.0)
+    X, U = scaled_rows(lpm.solve(problem, mesh, method="newton", throw=False))
+    check = check_mesh(mesh)
+    ocp, _, _ = transfer_ocp(problem, check)
+    collocated = np.asarray(check_flight(ocp, check, mesh, X, U, newton_steps=1))
+    separable = np.asarray(separable_flight(ocp, check, mesh, X, U, ya_kernel(problem.orbit)))
+
+    s0, sf = float(ocp.s0), float(ocp.sf)
+    rates = jax.jit(lambda s, x: ocp.dynamics(
+        s, x, mesh.interpolate_control(U, 2.0 * (s - s0) / (sf - s0) - 1.0), None, ocp.params))
+    rows = np.concatenate([np.asarray(check.points).reshape(check.n_segments, -1)[:, 1:],
+                           np.asarray(check.breaks)[1:, None]], axis=1)
+    scipy_flight = solve_ivp(
+        lambda s, x: np.asarray(rates(s, x)),
+        (s0, sf), np.asarray(X[0]), method="DOP853", rtol=1e-13, atol=1e-13,
+        t_eval=s0 + 0.5 * (sf - s0) * (rows.reshape(-1) + 1.0)).y.T.reshape(separable.shape)
+    polynomial = np.asarray(jax.vmap(lambda t: mesh.interpolate_state(X, t))(
+        jnp.asarray(rows.reshape(-1)))).reshape(separable.shape)
+    estimate = np.abs(collocated - polynomial).max()
+    floor = 1e-9 * np.abs(scipy_flight).max()
+    assert np.abs(separable - scipy_flight).max() <= 0.01 * estimate + floor
+    assert abs(np.abs(separable - polynomial).max() - estimate) <= 0.01 * estimate + floor
+
+
 # ---- INACCURATE, and refinement by default -------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -27,6 +27,7 @@ from jaxlpm.dynamics import (
     elliptic_lvlh_rhs,
     hcw_matrix,
     hcw_rhs,
+    tschauner_hempel_drift,
     tschauner_hempel_input_gain,
     tschauner_hempel_matrix,
     tschauner_hempel_rhs,
@@ -274,6 +275,9 @@ def test_stm_satisfies_tschauner_hempel_equation(e):
         # 1e-12 of that scale.
         scale = np.linalg.norm(tschauner_hempel_matrix(f, e)) * np.linalg.norm(P)
         assert np.max(np.abs(lhs - rhs)) <= 1e-12 * scale
+        # the written-out A(f) x of the solvers (`tschauner_hempel_drift`), column by column
+        drift = np.asarray(jax.vmap(lambda x: tschauner_hempel_drift(f, x, e), 1, 1)(P))
+        assert np.max(np.abs(drift - rhs)) <= 1e-14 * scale
 
 
 @pytest.mark.parametrize("e", STM_E)

@@ -54,14 +54,16 @@ from .._validation import Checked, Rule, coerce_sequences, is_concrete
 from ..collocation.segments import Mesh
 from ..constants import J2_EARTH, R_EARTH
 from ..dynamics import (lvlh_frame_motion, relative_lvlh_acceleration,
-                        tschauner_hempel_matrix)
+                        tschauner_hempel_drift)
 from ..dynamics.chief import (anomaly_rate, j2_chief, j2_final_anomaly, kepler_chief,
                               kepler_final_anomaly)
-from ..nlp.accuracy import check_flight, check_mesh, collocation_defects
+from ..dynamics.stm import ya_entries
+from ..linalg import materialized, structural_zero
+from ..nlp.accuracy import check_flight, check_mesh, collocation_defects, separable_flight
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import (collocated_rows, collocation_s, costates, objective,
                                  state_s, state_tau, support_rows, unpack)
-from ..orbits import KeplerOrbit, lvlh_to_th, th_to_lvlh
+from ..orbits import KeplerOrbit, lvlh_to_th, th_to_lvlh, time_from_true_anomaly
 from ..solution import Collocated, Solution
 from ..solution.accuracy import accuracy_stats
 from . import safety
@@ -178,7 +180,7 @@ def check_problem(problem: EnergyOptimalTransfer) -> None:
 
 
 def _th_dynamics(s, x, u, data, p):
-    return tschauner_hempel_matrix(s, p["e"]) @ x + jnp.concatenate(
+    return tschauner_hempel_drift(s, x, p["e"]) + jnp.concatenate(
         [jnp.zeros(3), p["axes"] * u / (1.0 + p["e"] * jnp.cos(s)) ** 3])
 
 
@@ -352,15 +354,35 @@ def collocation_accuracy(problem: EnergyOptimalTransfer, grid, X, U, control_map
     # `safety_stats`, with their own (denser) drift samples
     ocp_check, chief_check, _ = transfer_ocp(problem.replace(constraints=()), check, s_f)
     d = collocation_defects(ocp_check, check, grid, X, U, control_map=control_map)
-    # the linear model's flight is linear: one Newton step solves it
-    flown = check_flight(ocp_check, check, grid, X, U, control_map=control_map,
-                         newton_steps=1 if problem.model == "linear" else 4)
+    if problem.model == "linear":
+        flown = separable_flight(ocp_check, check, grid, X, U, ya_kernel(problem.orbit),
+                                 control_map=control_map)
+    else:
+        flown = check_flight(ocp_check, check, grid, X, U, control_map=control_map)
     to_si = jax.vmap(jax.vmap(lambda x, s: lvlh_state(problem, x, s)))
     stats = accuracy_stats(to_si(flown - d.states, d.s), d.relative)
     if problem.constraints:
         stats.update(safety_stats(problem, grid, X, U, state_tau(check),
                                   state_s(ocp_check, check), chief_check.t))
     return stats
+
+
+def ya_kernel(orbit: KeplerOrbit):
+    """The linear model's transition matrix as `separable_flight`'s kernel: Yamanaka &
+    Ankersen's Phi(f, r) = (F0(f) + (J_f - J_r) F1(f)) F^-1(r) (2002, eq. 82-86; J = k2 t, t the
+    time since the origin, `time_from_true_anomaly`) is P_1 Q_1 + P_2 Q_2 with
+    P = (F0 + J_f F1, F1) and Q = (F^-1, -J_r F^-1), on the Tschauner-Hempel state
+    [x~, y~, z~, x~', y~', z~'] (the linear model's, in any unit of length), as nested lists
+    of arrays shaped like f (`ya_entries`)."""
+    def kernel(f, origin):
+        t = time_from_true_anomaly(orbit, f) - time_from_true_anomaly(orbit, origin)
+        sf, cf, J = materialized(jnp.sin(f), jnp.cos(f), orbit.k2 * t)
+        F0, F1, Finv = ya_entries(sf, cf, orbit.e)
+        P1 = [[a if structural_zero(b) else a + J * b for a, b in zip(*rows)]
+              for rows in zip(F0, F1)]
+        Q2 = [[x if structural_zero(x) else -J * x for x in row] for row in Finv]
+        return [P1, F1], [Finv, Q2]
+    return kernel
 
 
 def safety_stats(problem: EnergyOptimalTransfer, grid, X, U, tau, s, t):

@@ -23,7 +23,6 @@ kkt_law: Mei 2010 §3.2, eq. (12)-(16): the state equations collocated with the 
 """
 
 import functools
-import operator
 
 import jax
 import jax.numpy as jnp
@@ -32,6 +31,9 @@ import numpy as np
 from ..collocation.padded import grid_rows, padding
 from ..dynamics.stm import IP, OP, ya_entries
 from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, small_spd_solve
+from ..linalg import entries_mm as _mm, entries_mv as _mv, entries_sum as _sum  # nested lists
+from ..linalg import entries_transpose as _tr, materialized as _materialized
+from ..linalg import structural_zero as _zero
 from ..orbits import lvlh_to_th, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
 from ..problems.energy_optimal import collocation_accuracy
@@ -121,48 +123,6 @@ def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, s
     return Solution(problem=prob, status=status.astype(jnp.int32), cost=out["cost"],
                     duration=prob.duration + 0.0 * e, trajectory=trajectory,
                     stats=out["stats"], method=method)
-
-
-def _materialized(*xs):
-    """The arrays xs (equal shapes), each computed once and stored.
-
-    XLA:CPU has no multi-output loop fusion and fuses a unary producer (sin, cos) into every
-    consumer fusion, so a node array that feeds dozens of fusions has its whole expression,
-    transcendentals included, re-evaluated in each; `lax.optimization_barrier` is removed
-    before fusion on CPU. A product with the identity (exact in floating point for finite
-    values; a non-finite one makes the others NaN, and the status NONFINITE either way) is a
-    fusion boundary: its operands are evaluated once into a buffer.
-    """
-    stacked = jnp.stack(xs)
-    return tuple(jnp.tensordot(jnp.eye(len(xs), dtype=stacked.dtype), stacked, axes=1))
-
-
-# Small matrices as nested lists (rows) of node arrays, per-problem scalars or Python numbers;
-# the Python number 0 is a structural zero, and products with it are skipped. Under vmap each
-# entry is one (batch, n) or (batch,) array, so every product below is a fused multiply-add
-# over the batch and the nodes (no small dots, no (k, k, n) arrays).
-
-def _zero(x):
-    return isinstance(x, (int, float)) and x == 0
-
-
-def _sum(terms):
-    """Sum of arrays or numbers; the structural zero 0.0 when there are none."""
-    return functools.reduce(operator.add, terms) if terms else 0.0
-
-
-def _mv(M, v):
-    """M v, skipping structural zeros."""
-    return [_sum([m * x for m, x in zip(row, v) if not (_zero(m) or _zero(x))]) for row in M]
-
-
-def _tr(M):
-    return [list(col) for col in zip(*M)]
-
-
-def _mm(A, B):
-    """A B, skipping structural zeros."""
-    return _tr([_mv(A, col) for col in _tr(B)])
 
 
 def _at_node(M, i):
