@@ -47,7 +47,7 @@ import numpy as np
 from ..collocation import Grid, interpolation_matrix
 from ..collocation.padded import PaddedGrid
 from ..collocation.segments import LGRMesh, Mesh, lgr_mesh
-from ..linalg import entries_mm, entries_mv, entries_sum, lu_solve
+from ..linalg import entries_mv, entries_sum, lu_solve
 from .transcription import support_rows
 
 POINTS_PER_PIECE = 5   # a check piece spans about this many of a segment's collocation points
@@ -294,8 +294,13 @@ def separable_flight(ocp_check, check: LGRMesh, grid, X, U, kernel, sf=None,
     def stacked(entries, shape):
         return jnp.stack([jnp.broadcast_to(x, shape) for x in entries])
 
+    def dense(M, column):                    # (n, n, K) of a nested list's entries in a column
+        return jnp.stack([stacked([x if isinstance(x, (int, float)) else x[:, column]
+                                   for x in row], (k,)) for row in M])
+
+    Q = kernel(c.s, origin)[1]                                  # at the points, (K, m) entries
     b = [b[..., j] for j in range(n_x)]
-    integrand = jnp.stack([stacked(entries_mv(Q, b), (k, m)) for Q in kernel(c.s, origin)[1]])
+    integrand = jnp.stack([stacked(entries_mv(Qi, b), (k, m)) for Qi in Q])  # (r, n, K, m)
     inner = jnp.einsum("jl,rikl->rikj", jnp.asarray(seg.integration)[1:], integrand)
     total = jnp.einsum("l,rikl->rik", jnp.asarray(seg.weights), integrand)
     forced = (jnp.concatenate([inner, total[..., None]], axis=-1)
@@ -304,25 +309,16 @@ def separable_flight(ocp_check, check: LGRMesh, grid, X, U, kernel, sf=None,
         tau_rows = jnp.concatenate([check.points.reshape(k, m)[:, 1:], check.breaks[1:, None]],
                                    axis=1)
     P = kernel(c.s0 + c.half * (tau_rows + 1.0), origin)[0]      # at the rows, (K, m) entries
-    Q0 = kernel(origin[:, 0], origin[:, 0])[1]                   # at the starts, (K,) entries
+    # the pieces' starts (the first point, J = 0 there) and ends (the last row)
+    Q0 = jnp.stack([dense(Qi, 0) for Qi in Q])                                # (r, n, n, K)
+    P1 = jnp.stack([dense(Pi, -1) for Pi in P])
 
-    def at_end(entries):
-        return [[x if isinstance(x, (int, float)) else x[:, -1] for x in row]
-                for row in entries]
+    def step(x, inputs):                   # x(b_k+1) = sum_i P_i(b_k+1) (Q_i(b_k) x + d_ik)
+        q, p, d = inputs
+        return jnp.sum(p * (jnp.sum(q * x, axis=-1) + d)[:, None], axis=(0, 2)), x
 
-    # Phi(b_k+1, b_k) = sum_i P_i(b_k+1) Q_i(b_k) and d_k, the piece's forced response
-    transition = stacked([entries_sum(t) for t in zip(*[
-        [x for row in entries_mm(at_end(Pi), Qi) for x in row] for Pi, Qi in zip(P, Q0)])],
-        (k,)).reshape(n_x, n_x, k)
-    forced_end = stacked([entries_sum(t) for t in zip(*[
-        entries_mv(at_end(Pi), list(f[..., -1])) for Pi, f in zip(P, forced)])], (k,))
-
-    def step(x, inputs):
-        phi, d = inputs
-        return jnp.sum(phi * x, axis=1) + d, x
-
-    starts = jax.lax.scan(step, c.X[0, 0], (jnp.moveaxis(transition, -1, 0), forced_end.T))[1]
-    coefficients = [jnp.stack(entries_mv(Qi, list(starts.T)))[..., None] + f   # (n, K, m)
-                    for Qi, f in zip(Q0, forced)]
+    starts = jax.lax.scan(step, c.X[0, 0], tuple(jnp.moveaxis(a, -1, 0) for a in (
+        Q0, P1, forced[..., -1])))[1]                                         # (K, n)
+    coefficients = jnp.sum(Q0 * starts.T[None, None], axis=2)[..., None] + forced
     terms = [entries_mv(Pi, list(a)) for Pi, a in zip(P, coefficients)]
     return jnp.moveaxis(stacked([entries_sum(row) for row in zip(*terms)], (k, m)), 0, -1)
