@@ -6,7 +6,7 @@ from .gravity import (gravity_acceleration, gravity_acceleration_difference, ine
 from .nonlinear import (lvlh_frame_motion, relative_inertial_rhs, relative_lvlh_acceleration,
                         relative_lvlh_rhs)
 from .linear import (chief_polar_rates, elliptic_lvlh_matrix, elliptic_lvlh_rhs, hcw_drift,
-                     hcw_flow, hcw_flow_entries, hcw_matrix, hcw_rhs, hcw_transition_kernel,
+                     hcw_flow, hcw_matrix, hcw_rhs,
                      tschauner_hempel_drift, tschauner_hempel_input_gain,
                      tschauner_hempel_matrix, tschauner_hempel_rhs)
 from .stm import (ya_inplane_fundamental, ya_inplane_inverse, ya_outofplane_fundamental,
@@ -14,7 +14,7 @@ from .stm import (ya_inplane_fundamental, ya_inplane_inverse, ya_outofplane_fund
 
 __all__ = [
     "chief_polar_rates", "elliptic_lvlh_matrix", "elliptic_lvlh_rhs", "hcw_drift", "hcw_flow",
-    "hcw_flow_entries", "hcw_matrix", "hcw_rhs", "hcw_transition_kernel",
+    "hcw_matrix", "hcw_rhs",
     "tschauner_hempel_drift", "tschauner_hempel_input_gain", "tschauner_hempel_matrix",
     "tschauner_hempel_rhs",
     "ya_inplane_fundamental", "ya_inplane_inverse", "ya_outofplane_fundamental",

@@ -6,8 +6,6 @@ Each function is for one state; callers vmap.
 
 import jax.numpy as jnp
 
-from .stm import stack_entries
-
 
 def hcw_matrix(n):
     """Hill-Clohessy-Wiltshire system matrix (circular chief, mean motion n in rad/s):
@@ -23,33 +21,20 @@ def hcw_matrix(n):
     ])
 
 
-def hcw_flow_entries(tau):
-    """exp(A tau) of the HCW matrix with n = 1 (`hcw_matrix(1.0)`: time tau = n t in rad,
-    velocities in length units per rad), in closed form (Clohessy & Wiltshire 1960; Vallado,
-    Fundamentals of Astrodynamics, 4th ed., eq. 6-66), state [x, y, z, vx, vy, vz], as a 6 x 6
-    nested list of arrays shaped like tau with Python numbers for the structural zeros and
-    ones (`jaxlpm.linalg.entries_mv`)."""
-    c, s = jnp.cos(tau), jnp.sin(tau)
-    return [
-        [4.0 - 3.0 * c, 0.0, 0.0, s, 2.0 * (1.0 - c), 0.0],
-        [6.0 * (s - tau), 1.0, 0.0, -2.0 * (1.0 - c), 4.0 * s - 3.0 * tau, 0.0],
-        [0.0, 0.0, c, 0.0, 0.0, s],
-        [3.0 * s, 0.0, 0.0, c, 2.0 * s, 0.0],
-        [-6.0 * (1.0 - c), 0.0, 0.0, -2.0 * s, 4.0 * c - 3.0, 0.0],
-        [0.0, 0.0, -s, 0.0, 0.0, c],
-    ]
-
-
 def hcw_flow(tau):
-    """`hcw_flow_entries` as an array (6, 6, *tau.shape): no LAPACK call (the matrix
-    exponential's Pade solve is one), exact for any tau."""
-    return stack_entries(hcw_flow_entries(tau), jnp.shape(tau))
-
-
-def hcw_transition_kernel(s, origin):
-    """The HCW flow (n = 1) as `jaxlpm.nlp.accuracy.separable_flight`'s kernel:
-    Phi(s, r) = exp(A (s - r)) = exp(A (s - o)) exp(A (o - r)) for any origin o, one term."""
-    return [hcw_flow_entries(s - origin)], [hcw_flow_entries(origin - s)]
+    """exp(A tau) of the HCW matrix with n = 1 (`hcw_matrix(1.0)`: time tau = n t in rad,
+    velocities in length units per rad), in closed form (Clohessy & Wiltshire 1960; Vallado, Fundamentals of Astrodynamics, 4th ed., eq. 6-66), state [x, y, z, vx, vy,
+    vz]: no LAPACK call (the matrix exponential's Pade solve is one), exact for any tau."""
+    c, s = jnp.cos(tau), jnp.sin(tau)
+    z = 0.0 * tau
+    return jnp.array([
+        [4.0 - 3.0 * c, z, z, s, 2.0 * (1.0 - c), z],
+        [6.0 * (s - tau), z + 1.0, z, -2.0 * (1.0 - c), 4.0 * s - 3.0 * tau, z],
+        [z, z, c, z, z, s],
+        [3.0 * s, z, z, c, 2.0 * s, z],
+        [-6.0 * (1.0 - c), z, z, -2.0 * s, 4.0 * c - 3.0, z],
+        [z, z, -s, z, z, c],
+    ])
 
 
 def hcw_drift(x, n):

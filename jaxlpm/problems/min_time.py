@@ -35,12 +35,11 @@ import numpy as np
 
 from .._validation import Checked, Rule, coerce_sequences
 from ..constants import J2_EARTH, R_EARTH
-from ..dynamics import hcw_drift, hcw_transition_kernel
+from ..dynamics import hcw_drift
 from ..orbits import KeplerOrbit
 from .energy_optimal import MODELS, perigee_above_surface
 from .scaling import length_scale, state_scale
-from ..nlp.accuracy import (check_mesh, collocation_defects, separable_flight,
-                            unit_direction)
+from ..nlp.accuracy import check_flight, check_mesh, collocation_defects, unit_direction
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import collocation_s, costates, state_s, unpack
 from ..solution import Collocated, Solution, zero_invalid
@@ -203,8 +202,8 @@ def collocation_accuracy(problem: MinimumTimeTransfer, ocp, grid, X, U, sf):
     the renormalised interpolated direction (what the trajectory flies)."""
     check = check_mesh(grid)
     d = collocation_defects(ocp, check, grid, X, U, sf, unit_direction)
-    # HCW with the direction fixed along the interpolant: linear, flown by its own flow
-    flown = separable_flight(ocp, check, grid, X, U, hcw_transition_kernel, sf, unit_direction)
+    # HCW with the direction fixed along the interpolant: linear, one Newton step
+    flown = check_flight(ocp, check, grid, X, U, sf, unit_direction, newton_steps=1)
     return accuracy_stats((flown - d.states) * state_scale(problem), d.relative)
 
 
