@@ -276,6 +276,11 @@ def entries_mm(A, B):
     return entries_transpose([entries_mv(A, col) for col in entries_transpose(B)])
 
 
+def entries_at(M, i):
+    """The entries of a nested-list matrix at index i of their last axis (numbers kept)."""
+    return [[x if isinstance(x, (int, float)) else x[..., i] for x in row] for row in M]
+
+
 def materialized(*xs):
     """The arrays xs (equal shapes), each computed once and stored.
 

@@ -47,7 +47,7 @@ import numpy as np
 from ..collocation import Grid, interpolation_matrix
 from ..collocation.padded import PaddedGrid
 from ..collocation.segments import LGRMesh, Mesh, lgr_mesh
-from ..linalg import entries_mv, entries_sum, lu_solve
+from ..linalg import entries_at, entries_mv, entries_sum, lu_solve
 from .transcription import support_rows
 
 POINTS_PER_PIECE = 5   # a check piece spans about this many of a segment's collocation points
@@ -295,8 +295,7 @@ def separable_flight(ocp_check, check: LGRMesh, grid, X, U, kernel, sf=None,
         return jnp.stack([jnp.broadcast_to(x, shape) for x in entries])
 
     def dense(M, column):                    # (n, n, K) of a nested list's entries in a column
-        return jnp.stack([stacked([x if isinstance(x, (int, float)) else x[:, column]
-                                   for x in row], (k,)) for row in M])
+        return jnp.stack([stacked(row, (k,)) for row in entries_at(M, column)])
 
     Q = kernel(c.s, origin)[1]                                  # at the points, (K, m) entries
     b = [b[..., j] for j in range(n_x)]

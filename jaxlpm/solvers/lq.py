@@ -32,7 +32,8 @@ from ..collocation.padded import grid_rows, padding
 from ..dynamics.stm import IP, OP, ya_entries
 from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, small_spd_solve
 from ..linalg import entries_mm as _mm, entries_mv as _mv, entries_sum as _sum  # nested lists
-from ..linalg import entries_transpose as _tr, materialized as _materialized
+from ..linalg import entries_at as _at_node, entries_transpose as _tr
+from ..linalg import materialized as _materialized
 from ..linalg import structural_zero as _zero
 from ..orbits import lvlh_to_th, time_from_true_anomaly, true_anomaly_from_time
 from ..status import Status
@@ -123,11 +124,6 @@ def _finish(method, s, grid, X_nodes, U_nodes, costates, multipliers, con_res, s
     return Solution(problem=prob, status=status.astype(jnp.int32), cost=out["cost"],
                     duration=prob.duration + 0.0 * e, trajectory=trajectory,
                     stats=out["stats"], method=method)
-
-
-def _at_node(M, i):
-    """The entries of M at node i (numbers kept)."""
-    return [[x if isinstance(x, (int, float)) else x[..., i] for x in row] for row in M]
 
 
 def _gramian(A, C, Binv, c, Jt):
