@@ -20,6 +20,15 @@ tracing and lowering, 26 of a warm 38 s `jaxlpm reproduce mei2010` (issue 21), r
 every time. An executable loads in well under a second (bench_compile.py, 2026-12-05: the
 KKT law 0.13 s, the Newton-KKT transfer 0.49 s).
 
+An executable that JAX's persistent cache supplied (a program it had kept from an earlier
+compile) is not written to disk: serialized again, such an executable fails when loaded in
+another process ("NOT_FOUND: Function and_and_fusion not found", jaxlib 0.10.2; reproduced
+2026-12-06 by filling JAX's cache, emptying this one and running `jaxlpm reproduce mei2010`
+twice: all 9 entries written by the second run failed in a third). Where both caches were on
+(the CLI and the test suite until then), each failed load compiled again from JAX's cache
+and wrote another such entry. The first call of an executable loaded from disk still runs to
+the end and, on such an error, the program is compiled afresh, overwriting the entry.
+
 Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
   "fast" (default)  XLA:CPU with LLVM's optimisation level 0 and the classic loop emitters
                     (xla_cpu_use_fusion_emitters=false). Measured on the 2-core CPU VM
@@ -29,11 +38,6 @@ Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
                     transfer (two-body, lgl(65)) compiles in 4.9 s instead of 11.8 s with
                     XLA's defaults. They then run 1.5-4x slower (24 ms against 6 ms; 0.096 s
                     against 0.027 s). Results agree to round-off.
-                    (Some executables compiled so, as with XLA's default optimisation, fail
-                    when loaded from disk in jaxlib 0.10.2: "Function and_and_fusion not
-                    found" (the test suite's shared cache, 2026-12-04 and -05). The first call
-                    of an executable loaded from disk therefore runs to the end and, on such
-                    an error, the program is compiled afresh, overwriting the entry.)
   "optimized"       XLA's defaults: for a script that calls `solve` thousands of times one by
                     one (batches under jax.vmap inside the user's jax.jit get the user's
                     options in any case).
@@ -41,10 +45,12 @@ On platforms other than CPU both profiles are XLA's defaults.
 
 `prefetch(run)` compiles concurrently what a run will need: it calls `run()` once as a dry
 run in which every compiled function is traced and lowered (on the calling thread: Python,
-the GIL) and handed to a pool of threads to compile (XLA releases the GIL), its call answered
-with zeros of the program's output shapes instead of being run; then it waits for the
-compiles. The real run that follows finds every program in memory. Tracing the next program
-overlaps the compiling of the last ones, and two compile at once on two cores. A dry run must
+the GIL) and handed to a pool of threads to compile (XLA releases the GIL), or, when it is on
+disk, handed to the pool to be loaded; its call is answered with zeros of the program's
+output shapes (an entry on disk records them) instead of being run; then it waits for the
+pool. The real run that follows finds every program in memory. Tracing the next program
+overlaps the compiling or loading of the last ones, and two compile or load at once on two
+cores. A dry run must
 not depend on the values it computes (a loop until convergence would not end on zeros): it
 is for fixed sequences of solves such as a reproduction's (`jaxlpm reproduce`); an exception
 in it ends the dry run early, and the real run compiles what is left as usual.
@@ -62,6 +68,7 @@ import os
 import pickle
 import platform
 import tempfile
+import threading
 import time
 import types
 import warnings
@@ -77,7 +84,7 @@ PROFILES = {
 }
 _PACKAGES = ("jax", "jaxlib", "numpy", "jaxopt", "diffrax", "equinox", "lineax", "optimistix")
 _SUBFOLDER = "executables"
-_FORMAT = 1   # bump when the entry's layout changes
+_FORMAT = 2   # bump when the entry's layout changes
 
 _profile = os.environ.get("JAXLPM_COMPILE", "fast")
 _memory: dict = {}
@@ -85,9 +92,10 @@ _from_disk: set = set()     # keys in _memory loaded from disk and not yet run (
 
 events: list = []
 """One dict per executable this process compiled (name, source "compiled", profile, trace_s,
-lower_s, compile_s, and hlo_lines, the lowered StableHLO's size, when `record_hlo`) or loaded
-from disk (name, source "disk", load_s): what a first run spent its time on
-(experiments/benchmarks/bench_compile.py reads it)."""
+lower_s, compile_s, jax_cache_hit (JAX's persistent cache supplied it), and hlo_lines, the
+lowered StableHLO's size, when `record_hlo`), loaded from disk (name, source "disk", load_s)
+or loaded and failed when first run (name, source "disk", failed, error): what a first run
+spent its time on (experiments/benchmarks/bench_compile.py reads it)."""
 record_hlo = False
 
 
@@ -203,30 +211,33 @@ class Compiled:
         executable = executable if executable is not None else self._load(key)
         if executable is not None:
             # an executable loaded from disk can fail when first run ("Function
-            # and_and_fusion not found", jaxlib 0.10.2, level-0 programs too): run it to
-            # the end once, and on such an error compile the program afresh (overwriting
-            # the entry)
+            # and_and_fusion not found": module docstring): run it to the end once, and on
+            # such an error compile the program afresh (overwriting the entry)
             _from_disk.discard(key)
             try:
                 out = jax.block_until_ready(executable(dynamic))
                 _memory[key] = executable
                 return out
-            except jax.errors.JaxRuntimeError:
-                events.append(dict(name=self.name, source="disk", failed=True))
+            except jax.errors.JaxRuntimeError as err:
+                events.append(dict(name=self.name, source="disk", failed=True,
+                                   error=str(err)[:300]))
         executable = _memory[key] = self._compile(key, *self._lower(dynamic, static))
         return executable(dynamic)
 
-    def _load(self, key):
-        """The executable from disk, or None; its load recorded in `events`."""
+    def _read(self, key):
+        """The entry on disk (`_read`), or None."""
         path = _entry(key) if self.on_disk else None
+        return _read(path) if path is not None and path.exists() else None
+
+    def _load(self, key, entry=None):
+        """The executable of `entry` (default: read from disk), or None; its load recorded
+        in `events`. Any thread."""
         t0 = time.perf_counter()
-        if path is not None and path.exists():
-            executable = _load(path)
-            if executable is not None:
-                events.append(dict(name=self.name, source="disk",
-                                   load_s=time.perf_counter() - t0))
-                return executable
-        return None
+        entry = self._read(key) if entry is None else entry
+        executable = _deserialize(entry) if entry is not None else None
+        if executable is not None:
+            events.append(dict(name=self.name, source="disk", load_s=time.perf_counter() - t0))
+        return executable
 
     def _lower(self, dynamic, static):
         """(lowered program, event with its trace and lower times)."""
@@ -242,18 +253,37 @@ class Compiled:
         return lowered, event
 
     def _compile(self, key, lowered, event):
-        """Compile (any thread), record the event, write the executable to disk."""
+        """Compile (any thread), record the event, write the executable to disk unless JAX's
+        own persistent cache supplied it (module docstring)."""
         t0 = time.perf_counter()
+        hits = _jax_cache_hits()
         executable = lowered.compile(compiler_options())
-        events.append(dict(event, compile_s=time.perf_counter() - t0))
-        path = _entry(key) if self.on_disk else None
-        # only the fast profile's executables go to disk: more of those compiled with XLA's
-        # default LLVM optimisation failed when loaded in jaxlib 0.10.2 ("Function
-        # or_and_fusion not found", the test suite's shared cache, 2026-12-04); "optimized"
-        # relies on JAX's own cache
+        from_jax_cache = _jax_cache_hits() > hits
+        events.append(dict(event, compile_s=time.perf_counter() - t0,
+                           jax_cache_hit=from_jax_cache))
+        path = _entry(key) if self.on_disk and not from_jax_cache else None
+        # only the fast profile's executables go to disk: "optimized" relies on JAX's own
+        # cache (those were the first seen to fail when loaded, before the cause below was
+        # found)
         if path is not None and profile() == "fast":
             _store(path, executable)
         return executable
+
+
+_local = threading.local()
+
+
+def _count_jax_cache_hit(event, **kwargs):
+    if event == "/jax/compilation_cache/cache_hits":
+        _local.jax_cache_hits = _jax_cache_hits() + 1
+
+
+def _jax_cache_hits() -> int:
+    """How many programs this thread has had from JAX's persistent compilation cache."""
+    return getattr(_local, "jax_cache_hits", 0)
+
+
+jax.monitoring.register_event_listener(_count_jax_cache_hit)
 
 
 class _Prefetch:
@@ -261,33 +291,42 @@ class _Prefetch:
 
     def __init__(self, workers, log):
         self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="jaxlpm-compile")
-        self.pending, self.log = {}, log
+        self.pending, self.log, self.compiling = {}, log, 0
 
     def dry_call(self, fn, key, dynamic, static):
-        """Zeros of the program's outputs; the program loaded, or lowered and submitted."""
+        """Zeros of the program's outputs; the program submitted to the pool to be loaded
+        from disk, or lowered and submitted to be compiled."""
         known = _memory.get(key)
         if known is None and key not in self.pending:
-            known = fn._load(key)
-            if known is not None:
-                _memory[key] = known
-                _from_disk.add(key)             # its first real call checks it
+            entry = fn._read(key)
+            if entry is not None:
+                _prepare_runtime()              # on this thread, before any load
+                self.pending[key] = (fn, self.pool.submit(fn._load, key, entry),
+                                     _output_info(entry), "loaded")
             else:
                 lowered, event = fn._lower(dynamic, static)
                 self.pending[key] = (fn, self.pool.submit(fn._compile, key, lowered, event),
-                                     lowered.out_info)
+                                     lowered.out_info, "compiled")
+                self.compiling += 1
                 if self.log is not None:
-                    self.log(f"compiling {len(self.pending)}: {fn.name}")
+                    self.log(f"compiling {self.compiling}: {fn.name}")
         info = known.out_info if known is not None else self.pending[key][2]
         # NumPy zeros: jnp.zeros would compile a broadcast per output shape
         return jax.tree_util.tree_map(lambda a: np.zeros(a.shape, a.dtype), info)
 
     def finish(self):
         done = 0
-        for key, (fn, future, _) in self.pending.items():
-            _memory[key] = future.result()
-            done += 1
-            if self.log is not None:
-                self.log(f"compiled {done} of {len(self.pending)}: {fn.name}")
+        for key, (fn, future, _, how) in self.pending.items():
+            executable = future.result()
+            if executable is None:              # an entry that would not load: a miss
+                continue
+            _memory[key] = executable
+            if how == "loaded":
+                _from_disk.add(key)             # its first real call checks it
+            else:
+                done += 1
+                if self.log is not None:
+                    self.log(f"compiled {done} of {self.compiling}: {fn.name}")
         self.pool.shutdown()
 
 
@@ -312,7 +351,7 @@ def prefetch(run, log=None, workers: int = 2) -> int:
     finally:
         _prefetching = None
         state.finish()
-    return len(state.pending)
+    return state.compiling
 
 
 def compiled(fun=None, *, static_argnames=()):
@@ -343,15 +382,39 @@ def _prepare_runtime():
     jax.jit(jnp.linalg.qr).lower(np.eye(2))
 
 
-def _load(path):
+def _read(path):
+    """An entry: (serialized executable, input tree, output tree, [(shape, dtype) of each
+    output leaf]), or None where it cannot be read."""
+    try:
+        entry = pickle.loads(path.read_bytes())
+    except Exception:                                   # noqa: BLE001 (unreadable: a miss)
+        return None
+    return entry if isinstance(entry, tuple) and len(entry) == 4 else None
+
+
+def _output_info(entry):
+    """The outputs' shapes and dtypes of an entry, as the executable's `out_info` gives them
+    (what a `prefetch` dry run answers with before the executable is loaded)."""
+    _, _, out_tree, outputs = entry
+    return out_tree.unflatten([jax.ShapeDtypeStruct(shape, np.dtype(dtype))
+                               for shape, dtype in outputs])
+
+
+def _deserialize(entry):
+    """The executable of an entry, or None (any thread, once `_prepare_runtime` has run)."""
     from jax.experimental.serialize_executable import deserialize_and_load
 
     _prepare_runtime()
     try:
-        payload, in_tree, out_tree = pickle.loads(path.read_bytes())
-        return deserialize_and_load(payload, in_tree, out_tree)
+        return deserialize_and_load(*entry[:3])
     except Exception:                                   # noqa: BLE001 (unreadable: a miss)
         return None
+
+
+def _load(path):
+    """The executable kept in `path`, or None."""
+    entry = _read(path)
+    return _deserialize(entry) if entry is not None else None
 
 
 def _store(path, executable):
@@ -359,8 +422,10 @@ def _store(path, executable):
     with host callbacks, e.g. equinox's runtime checks inside diffrax's integrators)."""
     from jax.experimental.serialize_executable import serialize
 
+    outputs = [(tuple(a.shape), np.dtype(a.dtype).str)
+               for a in jax.tree_util.tree_leaves(executable.out_info)]
     try:
-        blob = pickle.dumps(serialize(executable))
+        blob = pickle.dumps((*serialize(executable), outputs))
     except Exception:                                   # noqa: BLE001 (not serializable)
         return
     try:

@@ -10,7 +10,6 @@ import sys
 import textwrap
 from pathlib import Path
 
-import diffrax
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -31,6 +30,9 @@ SCRIPT = textwrap.dedent("""
     import sys
     import jax
     jax.config.update("jax_enable_x64", True)
+    if len(sys.argv) > 2:
+        jax.config.update("jax_compilation_cache_dir", sys.argv[2])
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     import jaxlpm as lpm
     from jaxlpm.cases import mei2010
     if sys.argv[1] == "forbid-trace":
@@ -42,10 +44,13 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
-def _run(cache, mode):
+def _run(cache, mode, jax_cache=None):
+    """The script in a fresh process with this executable cache (and JAX's persistent
+    compilation cache in `jax_cache`, when given)."""
     env = dict(os.environ, JAXLPM_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
-    out = subprocess.run([sys.executable, "-c", SCRIPT, mode], env=env, capture_output=True,
-                         text=True, timeout=600)
+    args = [] if jax_cache is None else [str(jax_cache)]
+    out = subprocess.run([sys.executable, "-c", SCRIPT, mode, *args], env=env,
+                         capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]
     return out.stdout.split()
 
@@ -56,6 +61,22 @@ def test_executable_cached_across_processes(tmp_path):
     assert files, "nothing was written to the executable cache"
     second = _run(tmp_path, "forbid-trace")
     assert second == first            # the same executable: bit-identical numbers
+
+
+def test_executable_from_jax_cache_is_not_written(tmp_path):
+    """An executable JAX's persistent cache supplied is not written to this cache: written,
+    it failed when loaded in the next process ("Function and_and_fusion not found",
+    `jaxlpm.compilation`). Here the first process fills both caches, this one is emptied,
+    and the second process (the program from JAX's cache) must leave it empty and give the
+    same numbers."""
+    ours, theirs = tmp_path / "jaxlpm", tmp_path / "jax"
+    first = _run(ours, "compile", theirs)
+    entries = list((ours / "executables").glob("*.bin"))
+    assert entries and list(theirs.iterdir())
+    for entry in entries:
+        entry.unlink()
+    assert _run(ours, "compile", theirs) == first
+    assert not list((ours / "executables").glob("*.bin"))
 
 
 def test_unreadable_entry_is_a_miss(tmp_path):
@@ -100,15 +121,15 @@ def test_integrators_trace_without_host_callbacks():
     """equinox's runtime checks inside diffrax are traced as NaN, not as a host callback
     (which would keep the flights and the J2 transfers out of every cache) ..."""
     ts = jnp.linspace(0.0, 1.0, 5)
-    jaxpr = jax.make_jaxpr(lambda y0: solve_ode(lambda t, y: -y, y0, 0.0, 1.0,
-                                                diffrax.SaveAt(ts=ts), COAST))(jnp.ones(2))
+    jaxpr = jax.make_jaxpr(lambda y0: solve_ode(lambda t, y: -y, y0, 0.0, 1.0, ts, COAST))(
+        jnp.ones(2))
     assert "callback" not in str(jaxpr)
 
 
 def test_failed_runtime_check_is_a_status_not_an_exception():
     """... and a check that fails (save times out of order) still fails: NONFINITE."""
-    ys, status = jax.jit(lambda ts: solve_ode(lambda t, y: -y, jnp.ones(2), 0.0, 1.0,
-                                              diffrax.SaveAt(ts=ts), COAST))(
+    ys, status = jax.jit(lambda ts: solve_ode(lambda t, y: -y, jnp.ones(2), 0.0, 1.0, ts,
+                                              COAST))(
         jnp.array([0.0, 0.8, 0.4, 1.0]))
     assert int(status) == Status.NONFINITE
 

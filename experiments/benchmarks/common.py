@@ -86,7 +86,7 @@ def batched_solves(problems, mesh, width):
     `lax.map` (`map_in_groups`, `width` members vmapped together). Returns (solutions, first
     call s, `timed` steady state, status counts by name)."""
     import jaxlpm as lpm
-    from jaxlpm.batch.mapping import map_in_groups
+    from jaxlpm.mapping import map_in_groups
 
     solve = jax.jit(lambda ps: map_in_groups(lambda p: lpm.solve(p, mesh, throw=False), ps,
                                              width))

@@ -3,11 +3,11 @@ resumable; grid sizes as point counts), Monte Carlo studies (the user's dispersi
 one plan flown with execution errors) and sensitivities. A paper's own dispersion lives with
 its case (`jaxlpm.cases.mei2010.dispersion`)."""
 
+from ..mapping import map_in_groups
 from .family import (SweepFamily, problem_table, sensitivity_family, solution_record,
                      solve_member, transfer_builder, transfer_family, transfer_record)
 from .montecarlo import (ExecutionErrors, execution_draws, execution_monte_carlo,
                          replan_monte_carlo)
-from .mapping import map_in_groups
 from .refine import Refinement, refine_batch
 from .store import ChunkStore, save_npz_atomic, write_json_atomic
 from .sweep import SweepResult, converged_statistics, load_sweep, parameter_grid, sweep

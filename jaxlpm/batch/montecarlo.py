@@ -31,7 +31,7 @@ from ..collocation import lgl
 from ..status import Status
 from ..verify.fly import flight_model, propagate_linear, propagate_nonlinear
 from .family import SweepFamily, problem_table, solution_record
-from .mapping import map_in_groups
+from ..mapping import map_in_groups
 from .sweep import PERCENTILES, converged_statistics, sweep
 
 

@@ -48,7 +48,7 @@ from ..solvers.min_time_condensed import CondensedOptions
 from ..solvers.refine import DEFAULT_LADDER, MeshLadder, interpolated_guess, split_breaks
 from ..solvers.transfer import newton_transfer
 from ..status import Status
-from .mapping import map_in_groups
+from ..mapping import map_in_groups
 
 _RECORD_KEYS = ("iterations", "newton_iterations", "fuel", "constraint_violation",
                 "violation_position", "violation_velocity", "path_violation")

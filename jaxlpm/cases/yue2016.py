@@ -16,7 +16,7 @@ states no radius), mu = 3.986004418e14 m^3/s^2.
 
 Pipeline here: segmented LGR collocation (24 segments of 8 points; first uniform, then with
 breaks at the switching times until the fuel changes by < 1e-4), the homotopy eps: 1 -> 1e-6
-inside one jit-compiled while-loop, the three deputies as one vmapped batch per mesh pass;
+inside one jit-compiled while-loop, the three deputies one after the other per mesh pass;
 verified by the indirect method (shooting on the costates, continued in eps from the LGR
 costates) and, outside the package, a fine-grid LP (experiments/yue2016_lp_check.py,
 tests/test_fuel_optimal.py). Then a batched sweep of the 8 km case over T_max and the
@@ -127,7 +127,7 @@ def _timed(fun, *args, **kwargs):
 
 
 def sweep(log):
-    """The 8 km case over T_max x transfer time, one vmapped call per mesh pass."""
+    """The 8 km case over T_max x transfer time, member by member per mesh pass."""
     grid = [(f, r) for f in SWEEP_THRUST for r in SWEEP_REVOLUTIONS]
     probs = problems(thrust=[f for f, _ in grid], revolutions=[r for _, r in grid],
                      targets_km=[(0, 8, 0)] * len(grid))
@@ -143,7 +143,7 @@ def sweep(log):
             for i, (f, r) in enumerate(grid)]
     ok = int(np.sum(status == Status.SUCCESS))
     log(f"sweep of (0,8,0) km over T_max {SWEEP_THRUST} N x {SWEEP_REVOLUTIONS} periods: "
-        f"{len(grid)} members, {int(st['passes'][0])} passes of one vmapped call each, {ok} converged "
+        f"{len(grid)} members, {int(st['passes'][0])} passes, {ok} converged "
         f"({dt:.1f} s)")
     return {"members": len(grid), "converged": ok, "passes": int(st["passes"][0]), "seconds": dt,
             "rows": rows}

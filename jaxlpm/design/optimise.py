@@ -39,16 +39,15 @@ import time
 import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 from tqdm import tqdm
 
 from ..batch.store import _canonical, save_npz_atomic, write_json_atomic
-from ..batch.mapping import map_in_groups
+from ..mapping import map_in_groups
 from ..nlp.newton import NewtonOptions
 from ..nlp.transcription import state_s, state_tau
 from ..problems import EnergyOptimalTransfer
@@ -59,6 +58,9 @@ from ..solvers.api import FAMILIES
 from ..solvers.transfer import linear_warm_start, newton_transfer
 from ..status import Status
 from .risk import MeanStd
+
+if TYPE_CHECKING:
+    import optax
 
 QUANTITIES = {"delta_v": lambda sol: sol.delta_v, "cost": lambda sol: sol.cost}
 
@@ -330,7 +332,7 @@ def _save(out: Path, definition, theta, opt_state, carry, history):
 
 
 def optimise(design: DesignProblem, theta0, key, *, steps: int = 30,
-             optimizer: optax.GradientTransformation | None = None,
+             optimizer: "optax.GradientTransformation | None" = None,
              common_random_numbers: bool = False, out=None, progress: bool = True,
              log=None) -> DesignResult:
     """Minimise design.risk of the per-member quantity over theta (module docstring) by
@@ -338,6 +340,8 @@ def optimise(design: DesignProblem, theta0, key, *, steps: int = 30,
     rate in every coordinate, so give theta coordinates of a similar scale), each followed by
     the projection onto [lower, upper]. out: a folder to save and resume the run (module
     docstring). log(str): one line per step (tqdm shows the same when progress=True)."""
+    import optax         # here: 0.1 s of every `import jaxlpm` otherwise (issue 21)
+
     optimizer = optax.adam(0.05) if optimizer is None else optimizer
     theta0 = jax.tree_util.tree_map(lambda v: jnp.asarray(v, jnp.float64), theta0)
     lower, upper = _bound(design.lower, theta0), _bound(design.upper, theta0)

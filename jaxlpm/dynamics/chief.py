@@ -19,7 +19,6 @@ limit over thousands of revolutions, or a non-finite orbit under vmap).
 
 from dataclasses import dataclass
 
-import diffrax
 import jax
 import jax.numpy as jnp
 
@@ -61,9 +60,10 @@ def kepler_chief(orbit: KeplerOrbit, s):
     return ChiefSamples(s=s, t=t, state=state)
 
 
-def _integrate(rhs, y0, scale, saveat):
-    """(ys, ok) over sigma in [0, 1]; ok False when `solve_ode` failed (never raises)."""
-    ys, status = solve_ode(lambda x, y: rhs(y * scale) / scale, y0 / scale, 0.0, 1.0, saveat,
+def _integrate(rhs, y0, scale, sigma):
+    """(ys at sigma, or at 1 alone for None; ok) over sigma in [0, 1]; ok False when
+    `solve_ode` failed (never raises)."""
+    ys, status = solve_ode(lambda x, y: rhs(y * scale) / scale, y0 / scale, 0.0, 1.0, sigma,
                            EPHEMERIS)
     return ys * scale, status == Status.SUCCESS
 
@@ -83,7 +83,7 @@ def j2_final_anomaly(orbit: KeplerOrbit, duration, j2, r_eq):
         return duration * jnp.concatenate([y[3:6], acc, anomaly_rate(y[:6])[None]])
 
     y0 = jnp.concatenate([r, v, jnp.atleast_1d(orbit.f0 + 0.0 * duration)])
-    ys, ok = _integrate(rhs, y0, _scale(orbit, 1.0), diffrax.SaveAt(t1=True))
+    ys, ok = _integrate(rhs, y0, _scale(orbit, 1.0), None)
     return ys[-1, 6], ok
 
 
@@ -98,6 +98,5 @@ def j2_chief(orbit: KeplerOrbit, s_f, sigma, j2, r_eq):
         return span / anomaly_rate(y[:6]) * jnp.concatenate([y[3:6], acc, jnp.ones(1)])
 
     y0 = jnp.concatenate([r, v, jnp.zeros(1)])
-    ys, ok = _integrate(rhs, y0, _scale(orbit, 1.0 / orbit.mean_motion),
-                        diffrax.SaveAt(ts=sigma))
+    ys, ok = _integrate(rhs, y0, _scale(orbit, 1.0 / orbit.mean_motion), sigma)
     return ChiefSamples(s=orbit.f0 + span * sigma, t=ys[:, 6], state=ys[:, :6]), ok

@@ -17,7 +17,6 @@ against scipy's DOP853 on the same equation (tests/test_io.py), where integratin
 (`propagate`, or `EPHEMERIS` on r) is off by 1e-5 to 4e-4 m.
 """
 
-import diffrax
 import jax
 import jax.numpy as jnp
 
@@ -54,5 +53,5 @@ def j2_ephemeris(orbit: KeplerOrbit, ts, j2, r_eq):
                + j2_acceleration(r_k, orbit.mu, j2, r_eq))
         return jnp.concatenate([d[3:], acc]) / scale
 
-    ys, status = solve_ode(rhs, jnp.zeros(6), 0.0, ts[-1], diffrax.SaveAt(ts=ts), EPHEMERIS)
+    ys, status = solve_ode(rhs, jnp.zeros(6), 0.0, ts[-1], ts, EPHEMERIS)
     return kepler_ephemeris(orbit, ts) + ys * scale, status == Status.SUCCESS

@@ -25,7 +25,6 @@ import contextlib
 import importlib
 from dataclasses import dataclass
 
-import diffrax
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -82,25 +81,32 @@ def _runtime_checks_as_nan():
         errors.EQX_ON_ERROR = "raise"
 
 
-def solve_ode(rhs, y0, t0, t1, saveat, integrator: Integrator):
+def solve_ode(rhs, y0, t0, t1, ts, integrator: Integrator):
     """Integrate dy/dt = rhs(t, y) (y any pytree) from t0 to t1 with PID-controlled adaptive
     steps (dt0 chosen by diffrax) and the `integrator`'s settings; never raises (diffrax
     throw=False), also under jit/vmap.
 
-    Returns (ys at `saveat`, status int32): SUCCESS; MAX_ITERATIONS when max_steps ran out
+    Returns (ys at the times `ts`, or with ts None at t1 alone (a leading axis of 1), status
+    int32): SUCCESS; MAX_ITERATIONS when max_steps ran out
     (ys: the last accepted state at t1, inf at save times not reached); NONFINITE for any
     other diffrax failure, non-finite saved states, or a non-finite t1 - t0, y0 or
     rhs(t0, y0). In that last case the solve is skipped (y' = 0 from y = 0: a few steps, not
     max_steps rejected ones, so one bad member does not stall a vmapped batch) and ys are
     zeros.
     """
+    # imported here, the one module that calls it: diffrax (with equinox, lineax and
+    # optimistix) takes 0.45 s to import, which a run whose programs load from disk
+    # (`jaxlpm.compilation`) never needs
+    import diffrax
+
     bad = ~(jnp.isfinite(t1 - t0) & _all_finite(y0) & _all_finite(rhs(t0, y0)))
     blank = lambda tree: jax.tree_util.tree_map(lambda x: jnp.where(bad, 0.0, x), tree)
     with _runtime_checks_as_nan():
         sol = diffrax.diffeqsolve(
             diffrax.ODETerm(lambda t, y, args: blank(rhs(t, y))),
             getattr(diffrax, integrator.solver)(), t0, t1, dt0=None, y0=blank(y0),
-            saveat=saveat, max_steps=integrator.max_steps,
+            saveat=diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts),
+            max_steps=integrator.max_steps,
             stepsize_controller=diffrax.PIDController(rtol=integrator.rtol,
                                                       atol=integrator.atol),
             adjoint=getattr(diffrax, integrator.adjoint)(), throw=False)
@@ -147,10 +153,9 @@ def propagate(state, duration, mu=MU_EARTH, j2=J2_EARTH, r_eq=R_EARTH, ts=None,
     _check_propagation(state, duration, mu, j2, r_eq)
     state = jnp.asarray(state, dtype=jnp.float64)
     scale = _scales(state, mu)
-    saveat = diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts)
     ys, status = solve_ode(
         lambda t, y: inertial_rhs(y * scale, jnp.zeros(3), mu, j2, r_eq) / scale,
-        state / scale, 0.0, duration, saveat, integrator)
+        state / scale, 0.0, duration, ts, integrator)
     ys = ys * scale
     valid = (jnp.isfinite(mu) & (mu > 0.0) & jnp.isfinite(r_eq) & (r_eq > 0.0)
              & jnp.isfinite(j2))            # the checks of `_check_propagation`, traced

@@ -28,6 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._validation import is_concrete
 from ..collocation import Grid, barycentric_interpolate
 from ..collocation.padded import MIN_CAPACITY, capacity, grid_rows, pad_grid, pad_rows
 from ..collocation.segments import Mesh
@@ -108,11 +109,14 @@ def control_interpolant(grid, values, x0, x1, magnitude=0.0, variable="time"):
         return MeshControl(grid, values, x0, x1, jnp.asarray(magnitude, values.dtype),
                            variable)
     pad = capacity(grid.n) - grid.n
+    # host arrays where nothing is traced: a flight of a concrete solution pads without
+    # compiling a pad per shape
+    xp = np if is_concrete(grid, values, x0, x1, magnitude) else jnp
     return ControlInterpolant(
-        tau=jnp.pad(jnp.asarray(grid.points), (0, pad), constant_values=_FAR),
-        bary=jnp.pad(jnp.asarray(grid.point_bary), (0, pad)),
-        values=jnp.pad(values, ((0, pad), (0, 0))), x0=x0, x1=x1,
-        magnitude=jnp.asarray(magnitude, values.dtype), variable=variable)
+        tau=xp.pad(xp.asarray(grid.points), (0, pad), constant_values=_FAR),
+        bary=xp.pad(xp.asarray(grid.point_bary), (0, pad)),
+        values=xp.pad(values, ((0, pad), (0, 0))), x0=x0, x1=x1,
+        magnitude=xp.asarray(magnitude, values.dtype), variable=variable)
 
 
 @jax.tree_util.register_dataclass

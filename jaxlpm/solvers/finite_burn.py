@@ -75,7 +75,6 @@ lgl(5)) returns a `Solution` (frame "inertial", trajectory `jaxlpm.solution.Fini
 
 from dataclasses import dataclass, field
 
-import diffrax
 import jax
 import jax.numpy as jnp
 
@@ -184,7 +183,7 @@ def _second_order_stm(x_e, duration, p):
                 + jnp.einsum("imn,mk,nl->ikl", Hf, P, P))
 
     Y0 = (x_e / scale, jnp.eye(6), jnp.zeros((6, 6, 6)))
-    ys, status = solve_ode(rhs, Y0, 0.0, duration, diffrax.SaveAt(t1=True), VARIATIONAL)
+    ys, status = solve_ode(rhs, Y0, 0.0, duration, None, VARIATIONAL)
     _, P, Q = (leaf[-1] for leaf in ys)
     Phi = P * scale[:, None] / scale[None, :]
     Psi = Q * scale[:, None, None] / (scale[None, :, None] * scale[None, None, :])

@@ -11,7 +11,7 @@ the linear model, shooting on the costates with the smoothed switching law, cont
 from the LGR costates. `refine_fuel_optimal(problems, segments, points)`: host-side passes over
 meshes with a break at every switching time of the previous solution (`aligned_breaks`), the
 first mesh uniform, until the fuel changes by less than `fuel_tol` (relative); a batch of
-problems is one vmapped call per pass.
+problems is solved member by member (or in vmapped groups) each pass.
 
 Nonlinear models (successive linearisation): the homotopy runs on the condensed problem
 linearised about the collocated states of the previous run (the first about the chief itself,
@@ -47,7 +47,8 @@ import numpy as np
 
 from ..compilation import compiled
 from .._validation import is_concrete, require_x64
-from ..collocation import lg_nodes_weights
+from ..mapping import map_in_groups
+from ..collocation import lg_nodes_weights, lgr
 from ..collocation.segments import (SegmentedMesh, aligned_breaks, as_segmented,
                                    segmented_lgr, uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
@@ -432,16 +433,46 @@ def _member(tree, i):
     return jax.tree_util.tree_map(lambda x: x[i], tree)
 
 
+@compiled(static_argnames=("points", "options", "width"))
+def _grouped_pass(problems, breaks, points, options, width):
+    """`_refine_pass` in vmapped groups of `width` members (`jaxlpm.batch.map_in_groups`)."""
+    grid = lgr(points)
+    return map_in_groups(
+        lambda pb: _fuel_optimal_transfer(pb[0], SegmentedMesh(breaks=pb[1], grid=grid), options),
+        (problems, breaks), width)
+
+
+def _refine_pass(problems, breaks, points, options, width):
+    """One pass of `refine_fuel_optimal`: every member on its own mesh (breaks (B, K + 1)).
+    Width 1: member by member through the one-problem program (`jaxlpm.solve`'s, whatever
+    the number of members), the solutions stacked on the host; else `_grouped_pass`."""
+    if width > 1:
+        return _grouped_pass(problems, breaks, points, options, width)
+    grid = lgr(points)
+    host = jax.tree_util.tree_map(np.asarray, problems)
+    solutions = [_compiled(_member(host, i), SegmentedMesh(breaks=breaks[i], grid=grid), options)
+                 for i in range(np.shape(breaks)[0])]
+    return jax.tree_util.tree_map(lambda *xs: np.stack([np.asarray(x) for x in xs]), *solutions)
+
+
 def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, points: int = 8,
                         fuel_tol: float = 1e-4, max_passes: int = 5,
-                        options: HomotopyOptions = HomotopyOptions()) -> Solution:
+                        options: HomotopyOptions = HomotopyOptions(),
+                        width: int = 1) -> Solution:
     """Solve a batch of problems (leading axis on every array leaf but scalars, which the
     members share; one problem: add it with `jax.tree_util.tree_map(lambda x: x[None], p)`)
     on `segments` LGR segments of `points`
     points: first a uniform mesh, then meshes with breaks at the previous switching times,
     until every member's fuel changes by less than fuel_tol (relative) or max_passes.
-    Each pass is one vmapped call. Returns the last pass's batched `Solution`, its stats
-    extended by the refinement, one row per member: passes (B,), fuel_by_pass (B, passes)
+    A pass solves the members one after the other (width 1, the default: each homotopy to its
+    own number of steps, by `jaxlpm.solve`'s compiled program) or in vmapped groups of
+    `width` in one compiled call (`jaxlpm.batch.map_in_groups`). On the CPU one at a time is
+    the faster: yue2016's sweep of 42 members took 3.8 s a pass so against 9-11 s vmapped
+    (2026-12-06, 2-core VM, the fast compile profile; a vmapped homotopy runs every member to
+    the slowest one's steps, here 155 Newton iterations against a median of 64, and both
+    branches of every `lax.cond`); a wide `width` is for accelerators. Returns the last
+    pass's batched `Solution` (host arrays when width is 1), its stats extended by the
+    refinement, one row per member: passes (B,), fuel_by_pass (B, passes)
     (kg) and fuel_change (B,) (relative change of the last pass; inf after a single pass)."""
     require_x64()
     if not isinstance(problems, FuelOptimalTransfer):
@@ -455,14 +486,14 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
         lambda x: jnp.broadcast_to(x, size) if np.ndim(x) == 0 else x, problems)
     for i in range(size[0]):
         _member(problems, i).validate()
+    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
+        raise ValueError(f"width must be a positive integer, got {width!r}")
     grid_mesh = segmented_lgr(uniform_breaks(0.0, 1.0, segments), points)
     check_grid(grid_mesh, "homotopy")
-    solve = jax.jit(jax.vmap(lambda p, b: _fuel_optimal_transfer(
-        p, SegmentedMesh(breaks=b, grid=grid_mesh.grid), options)))
     breaks = np.tile(np.asarray(grid_mesh.breaks), (size[0], 1))
     fuels = []
     for _ in range(max_passes):
-        sol = solve(problems, jnp.asarray(breaks))
+        sol = _refine_pass(problems, breaks, points, options, int(width))
         fuels.append(np.asarray(sol.stats["fuel"]))
         change = (np.abs(fuels[-1] - fuels[-2]) / np.abs(fuels[-1]) if len(fuels) > 1
                   else np.full(size[0], np.inf))

@@ -31,7 +31,6 @@ NONFINITE.
 
 from dataclasses import dataclass, field
 
-import diffrax
 import jax
 import jax.numpy as jnp
 
@@ -96,7 +95,7 @@ def _integrate(rhs, y0, scale, duration, n_save):
     (times, ys, status), never raising (`solve_ode`)."""
     ts = jnp.linspace(0.0, 1.0, n_save) * duration
     ys, status = solve_ode(lambda t, y: rhs(t, y * scale) / scale, y0 / scale, 0.0, duration,
-                           diffrax.SaveAt(ts=ts), FLIGHT)
+                           ts, FLIGHT)
     return ts, ys * scale, status
 
 
@@ -172,13 +171,14 @@ def _fly_lvlh(orbit, x0, xf, duration, control, j2, r_eq, linear, n_save):
 
 
 @compiled
-def _planned(solution, ts):
-    return solution.states(ts)
+def _plan_difference(solution, ts, xs):
+    """The largest distance between the flown states xs and the solution's at ts."""
+    return _largest_difference(xs, solution.states(ts))
 
 
 def _plan(solution):
-    """The solution whose states `_planned` evaluates: a concrete one on an LGL `Grid` with
-    its trajectory padded, its stats and method left out (`Collocated.padded`), so that one
+    """The solution whose states `_plan_difference` evaluates: a concrete one on an LGL `Grid`
+    with its trajectory padded, its stats and method left out (`Collocated.padded`), so that one
     program serves every grid and method up to the capacity (mei2010 flies 16 solutions of
     2 laws on 7 grids)."""
     tr = solution.trajectory
@@ -225,7 +225,7 @@ def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
         ts, xs, err, status = _fly_lvlh(p.orbit, p.x0, p.xf, sol.duration,
                                         sol.trajectory.flight_control(), j2, r_eq,
                                         model == "linear", n_save)
-        return Flight(ts, xs, err, _largest_difference(xs, _planned(_plan(sol), ts)), status,
+        return Flight(ts, xs, err, _plan_difference(_plan(sol), ts, xs), status,
                       model)
 
     for _ in range(jnp.ndim(solution.status)):

@@ -17,7 +17,6 @@ the reference for mesh studies.
 
 from dataclasses import dataclass
 
-import diffrax
 import jax
 import jax.numpy as jnp
 
@@ -56,7 +55,7 @@ def _flow(params, x0, lam0, length):
                                 -A.T @ lam])
 
     ys, status = solve_ode(rhs, jnp.concatenate([x0, lam0]), 0.0, length,
-                           diffrax.SaveAt(t1=True), SHOOTING)
+                           None, SHOOTING)
     return ys[-1], status
 
 

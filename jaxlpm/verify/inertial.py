@@ -21,7 +21,6 @@ module's solver and tolerances) are shared; tests/test_tan2011.py checks it agai
 DOP853 on a NumPy right-hand side.
 """
 
-import diffrax
 import jax.numpy as jnp
 
 from .._validation import require_x64
@@ -54,8 +53,7 @@ def fly(state, mass, t0, t1, control=None, thrust=0.0, mass_rate=0.0,
         rate = inertial_rhs(y[:6], u, mu, j2, r_eq)
         return jnp.concatenate([rate, -jnp.atleast_1d(mass_rate * 1.0)]) / scale
 
-    saveat = diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts)
-    ys, status = solve_ode(rhs, y0 / scale, t0, t1, saveat, INDEPENDENT)
+    ys, status = solve_ode(rhs, y0 / scale, t0, t1, ts, INDEPENDENT)
     ys = ys * scale
     return (ys[-1] if ts is None else ys), status == Status.SUCCESS
 
