@@ -23,6 +23,15 @@ def is_concrete(*xs) -> bool:
     return not any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(xs))
 
 
+def array_module(*trees):
+    """NumPy where no leaf of `trees` is a JAX array (or tracer), else jax.numpy: the module
+    that `Checked` rules written once compute their flags with, on the host for a
+    `Checked.validate` (no program compiled per check and shape) and in the graph for
+    `Checked.validity`."""
+    leaves = jax.tree_util.tree_leaves(trees)
+    return jnp if any(isinstance(x, jax.Array) for x in leaves) else np
+
+
 def real_array(name: str, value):
     """`value` as a float64 NumPy array (a tracer is returned as it is, its dtype checked);
     ValueError naming `name` unless it is real numbers (ints or floats, not bool, complex,
@@ -85,7 +94,8 @@ class Checked:
     and the static rules of nested `Checked` fields, and a class with more static fields
     extends it), and names a harmless valid instance in `harmless()`. From them:
       validate()      concrete input: the static rules, then ValueError naming the first
-                      `Rule` that fails, its value and what is allowed;
+                      `Rule` that fails, its value and what is allowed (the rules evaluated
+                      by NumPy on a host copy: `array_module`);
       validity()      traced input: the conjunction of the rules' flags (status INVALID_INPUT
                       where False);
       sanitized(ok)   every leaf replaced by the harmless instance's where ok is False, so an
@@ -113,7 +123,8 @@ class Checked:
 
     def validate(self) -> None:
         self.static_rules()
-        for rule in self.rules():
+        host = jax.tree_util.tree_map(np.asarray, self)     # the rules computed by NumPy
+        for rule in host.rules():
             if not bool(rule.ok):
                 raise ValueError(f"{rule.name} must be {rule.allowed}, got "
                                  f"{_field(self, rule.name)}")

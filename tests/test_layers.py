@@ -6,7 +6,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "jaxlpm"
 BOTTOM = {"constants", "status", "linalg", "implicit", "_validation", "_cpu_runtime",
-          "compilation"}
+          "compilation", "mapping"}
 # each layer may import itself, the bottom layer and what is listed (transitively closed)
 ALLOWED = {
     "collocation": set(),

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, replace
 import jax
 import jax.numpy as jnp
 
-from .._validation import Checked, Rule, check_scalars
+from .._validation import Checked, Rule, array_module, check_scalars
 from ..constants import MU_EARTH
 from ..implicit import root
 from .epoch import canonical_epoch
@@ -52,12 +52,13 @@ class KeplerOrbit(Checked):
         """The orbit's validity rules, written once (`jaxlpm._validation.Checked`): `validate`
         raises on the first that fails (concrete input), `validity` is their conjunction
         (traced input: status INVALID_INPUT)."""
-        finite = {n: jnp.isfinite(getattr(self, n)) for n in ANGLES}
-        return [Rule("orbit.a", jnp.isfinite(self.a) & (self.a > 0.0),
+        xp = array_module(self)
+        finite = {n: xp.isfinite(getattr(self, n)) for n in ANGLES}
+        return [Rule("orbit.a", xp.isfinite(self.a) & (self.a > 0.0),
                      "a positive, finite semi-major axis in m"),
-                Rule("orbit.e", jnp.isfinite(self.e) & (self.e >= 0.0) & (self.e < 1.0),
+                Rule("orbit.e", xp.isfinite(self.e) & (self.e >= 0.0) & (self.e < 1.0),
                      "an eccentricity in [0, 1) (elliptic chief)"),
-                Rule("orbit.mu", jnp.isfinite(self.mu) & (self.mu > 0.0),
+                Rule("orbit.mu", xp.isfinite(self.mu) & (self.mu > 0.0),
                      "a positive, finite gravitational parameter in m^3/s^2"),
                 *[Rule(f"orbit.{n}", ok, "a finite angle in rad") for n, ok in finite.items()]]
 

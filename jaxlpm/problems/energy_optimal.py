@@ -50,7 +50,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import Checked, Rule, coerce_sequences, is_concrete
+from .._validation import Checked, Rule, array_module, coerce_sequences, is_concrete
 from ..collocation import Grid
 from ..collocation.segments import Mesh
 from ..constants import J2_EARTH, R_EARTH
@@ -132,14 +132,15 @@ class EnergyOptimalTransfer(Checked):
         nonlinear models fly the chief on its orbit, so they need its perigee above the
         surface (r_p = a (1 - e) > r_eq); the linear model is a local expansion that does not
         care."""
+        xp = array_module(self)
         o = self.orbit
         rules = [*o.rules(),
-                 Rule("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
-                 Rule("xf", jnp.all(jnp.isfinite(self.xf)), "finite (m, m/s)"),
-                 Rule("duration", jnp.isfinite(self.duration) & (self.duration > 0.0),
+                 Rule("x0", xp.all(xp.isfinite(self.x0)), "finite (m, m/s)"),
+                 Rule("xf", xp.all(xp.isfinite(self.xf)), "finite (m, m/s)"),
+                 Rule("duration", xp.isfinite(self.duration) & (self.duration > 0.0),
                       "a positive, finite duration in s"),
-                 Rule("j2", jnp.isfinite(self.j2), "finite"),
-                 Rule("r_eq", jnp.isfinite(self.r_eq) & (self.r_eq > 0.0),
+                 Rule("j2", xp.isfinite(self.j2), "finite"),
+                 Rule("r_eq", xp.isfinite(self.r_eq) & (self.r_eq > 0.0),
                       "a positive equatorial radius in m")]
         if self.model != "linear":
             rules.append(Rule("orbit", perigee_above_surface(o.a, o.e, self.r_eq),

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field, replace
 import jax
 import jax.numpy as jnp
 
-from .._validation import Checked, Rule, coerce_sequences
+from .._validation import Checked, Rule, array_module, coerce_sequences
 from ..collocation.segments import LGRMesh, SegmentedMesh
 from ..constants import G0, J2_EARTH, R_EARTH
 from ..dynamics.chief import anomaly_rate
@@ -114,11 +114,12 @@ class FuelOptimalTransfer(Checked):
     def rules(self):
         """Validity rules, written once (`jaxlpm._validation.Checked`): the energy-optimal
         transfer's (orbit, states, duration, model constants), then the engine's."""
-        positive = [Rule(name, jnp.isfinite(getattr(self, name)) & (getattr(self, name) > 0.0),
+        xp = array_module(self)
+        positive = [Rule(name, xp.isfinite(getattr(self, name)) & (getattr(self, name) > 0.0),
                          f"positive and finite ({unit})")
                     for name, unit in (("thrust_max", "N"), ("mass", "kg"), ("isp", "s"))]
         return [*self.energy_problem(self.constraints).rules(), *positive,
-                Rule("xf", jnp.any(self.x0 != self.xf),
+                Rule("xf", xp.any(self.x0 != self.xf),
                      "different from x0 (the fuel-optimal transfer is no thrust at all)")]
 
     def static_rules(self) -> None:

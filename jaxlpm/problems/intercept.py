@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import Checked, Rule, check_shape, coerce_sequences, real_array
+from .._validation import Checked, Rule, array_module, check_shape, coerce_sequences, real_array
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH, G0
 from ..orbits.epoch import canonical_epoch
 from ..orbits.lambert import BRANCHES
@@ -87,26 +87,27 @@ class ImpulsiveIntercept(Checked):
 
     def rules(self):
         """Validity rules, written once (`jaxlpm._validation.Checked`)."""
-        t, tf = jnp.asarray(self.burn_time), self.duration
+        xp = array_module(self)
+        t, tf = xp.asarray(self.burn_time), self.duration
         if self.optimises_burn_time:
             burn = (t[0] > 0.0) & (t[0] < t[1]) & (t[1] < tf)
         else:
             burn = (t > 0.0) & (t < tf)
-        rules = [Rule("state0", jnp.all(jnp.isfinite(self.state0))
-                      & (jnp.linalg.norm(self.state0[:3]) > 0.0),
+        rules = [Rule("state0", xp.all(xp.isfinite(self.state0))
+                      & (xp.linalg.norm(self.state0[:3]) > 0.0),
                       "finite with a non-zero position (m, m/s)"),
-                 Rule("duration", jnp.isfinite(tf) & (tf > 0.0),
+                 Rule("duration", xp.isfinite(tf) & (tf > 0.0),
                       "a positive, finite intercept time t_f in s"),
-                 Rule("r_target", jnp.all(jnp.isfinite(self.r_target))
-                      & (jnp.linalg.norm(self.r_target) > 0.0),
+                 Rule("r_target", xp.all(xp.isfinite(self.r_target))
+                      & (xp.linalg.norm(self.r_target) > 0.0),
                       "a finite, non-zero position in m"),
-                 Rule("burn_time", jnp.all(jnp.isfinite(t)) & burn,
+                 Rule("burn_time", xp.all(xp.isfinite(t)) & burn,
                       "a burn time in (0, duration) s or a window [t_lo, t_hi] with "
                       "0 < t_lo < t_hi < duration (s)"),
-                 Rule("mu", jnp.isfinite(self.mu) & (self.mu > 0.0),
+                 Rule("mu", xp.isfinite(self.mu) & (self.mu > 0.0),
                       "a positive, finite gravitational parameter in m^3/s^2"),
-                 Rule("j2", jnp.isfinite(self.j2), "finite"),
-                 Rule("r_eq", jnp.isfinite(self.r_eq) & (self.r_eq > 0.0),
+                 Rule("j2", xp.isfinite(self.j2), "finite"),
+                 Rule("r_eq", xp.isfinite(self.r_eq) & (self.r_eq > 0.0),
                       "a positive equatorial radius in m")]
         if self.revolutions is not None:
             rules.append(Rule("revolutions", self.revolutions >= 0,
@@ -197,18 +198,19 @@ class FiniteBurnIntercept(Checked):
     def rules(self):
         """Validity rules, written once (`jaxlpm._validation.Checked`); the intercept's own
         are named "intercept.<field>"."""
-        positive = lambda x: jnp.isfinite(x) & (x > 0.0)
+        xp = array_module(self)
+        positive = lambda x: xp.isfinite(x) & (x > 0.0)
         rules = [r._replace(name=f"intercept.{r.name}") for r in self.intercept.rules()]
         rules += [Rule("thrust", positive(self.thrust), "positive and finite (N)"),
                   Rule("mass", positive(self.mass), "positive and finite (kg)"),
                   Rule("isp", positive(self.isp), "positive and finite (s)"),
                   Rule("max_duration", self.max_duration > 0.0, "positive (s; inf allowed)")]
         if self.seeded:
-            rules += [Rule("seed_time", jnp.isfinite(self.seed_time) & (self.seed_time > 0.0)
+            rules += [Rule("seed_time", xp.isfinite(self.seed_time) & (self.seed_time > 0.0)
                            & (self.seed_time < self.intercept.duration),
                            "a burn time in (0, intercept.duration) s"),
-                      Rule("seed_dv", jnp.all(jnp.isfinite(self.seed_dv))
-                           & (jnp.linalg.norm(self.seed_dv) > 0.0),
+                      Rule("seed_dv", xp.all(xp.isfinite(self.seed_dv))
+                           & (xp.linalg.norm(self.seed_dv) > 0.0),
                            "a finite, non-zero impulse (m/s, inertial)")]
         return rules
 

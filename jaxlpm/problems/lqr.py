@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import Checked, Rule, check_shape, coerce_sequences
+from .._validation import Checked, Rule, array_module, check_shape, coerce_sequences
 from ..linalg import cholesky_factor
 from ..orbits import KeplerOrbit
 
@@ -130,18 +130,19 @@ class LQRTransfer(Checked):
 
     def rules(self):
         """Validity rules, written once (`jaxlpm._validation.Checked`)."""
+        xp = array_module(self)
         S = self.terminal_weight
         if self.terminal == "weight":
             terminal = matrix_rules("terminal_weight", S, "terminal weight")
         else:
-            terminal = [Rule("terminal_weight", jnp.all(S == 0.0),
+            terminal = [Rule("terminal_weight", xp.all(S == 0.0),
                              f"zero for terminal={self.terminal!r} (a terminal weight needs "
                              f"terminal='weight')")]
         return [*self.orbit.rules(),
                 Rule("orbit.e", self.orbit.e == 0.0,
                      "0: the LQR family uses the HCW equations (circular chief)"),
-                Rule("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
-                Rule("duration", jnp.isfinite(self.duration) & (self.duration > 0.0),
+                Rule("x0", xp.all(xp.isfinite(self.x0)), "finite (m, m/s)"),
+                Rule("duration", xp.isfinite(self.duration) & (self.duration > 0.0),
                      "a positive, finite duration in s"),
                 *weight_rules(self.Q, self.R), *terminal]
 

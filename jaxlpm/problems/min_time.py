@@ -33,7 +33,7 @@ import jax.numpy as jnp
 
 import numpy as np
 
-from .._validation import Checked, Rule, coerce_sequences
+from .._validation import Checked, Rule, array_module, coerce_sequences
 from ..constants import J2_EARTH, R_EARTH
 from ..dynamics import hcw_drift
 from ..orbits import KeplerOrbit
@@ -96,12 +96,13 @@ class MinimumTimeTransfer(Checked):
 
     def rules(self):
         """Validity rules, written once (`jaxlpm._validation.Checked`)."""
+        xp = array_module(self)
         lo, hi = self.bounds[0], self.bounds[1]
         rules = [*self.orbit.rules(),
-                 Rule("x0", jnp.all(jnp.isfinite(self.x0)), "finite (m, m/s)"),
-                 Rule("xf", jnp.all(jnp.isfinite(self.xf)), "finite (m, m/s)"),
-                 Rule("j2", jnp.isfinite(self.j2), "finite"),
-                 Rule("r_eq", jnp.isfinite(self.r_eq) & (self.r_eq > 0.0),
+                 Rule("x0", xp.all(xp.isfinite(self.x0)), "finite (m, m/s)"),
+                 Rule("xf", xp.all(xp.isfinite(self.xf)), "finite (m, m/s)"),
+                 Rule("j2", xp.isfinite(self.j2), "finite"),
+                 Rule("r_eq", xp.isfinite(self.r_eq) & (self.r_eq > 0.0),
                       "a positive equatorial radius in m")]
         if self.model != "linear":
             rules.append(Rule("orbit", perigee_above_surface(self.orbit.a, self.orbit.e,
@@ -109,13 +110,13 @@ class MinimumTimeTransfer(Checked):
                               f"an orbit whose perigee a (1 - e) is above r_eq on the "
                               f"{self.model!r} model"))
         return [*rules,
-                Rule("thrust", jnp.isfinite(self.thrust) & (self.thrust > 0.0),
+                Rule("thrust", xp.isfinite(self.thrust) & (self.thrust > 0.0),
                      "positive and finite (N)"),
-                Rule("mass", jnp.isfinite(self.mass) & (self.mass > 0.0),
+                Rule("mass", xp.isfinite(self.mass) & (self.mass > 0.0),
                      "positive and finite (kg)"),
-                Rule("duration_bounds", ~jnp.isnan(lo) & ~jnp.isnan(hi) & (lo >= 0.0)
+                Rule("duration_bounds", ~xp.isnan(lo) & ~xp.isnan(hi) & (lo >= 0.0)
                      & (lo < hi), "[t_min, t_max] with 0 <= t_min < t_max (s)"),
-                Rule("xf", jnp.any(self.x0 != self.xf),
+                Rule("xf", xp.any(self.x0 != self.xf),
                      "different from x0 (the minimum time of no transfer is 0)")]
 
     def static_rules(self) -> None:

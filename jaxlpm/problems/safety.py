@@ -37,7 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import Checked, Rule, coerce_sequences
+from .._validation import Checked, Rule, array_module, coerce_sequences
 from ..dynamics.stm import yamanaka_ankersen_stm
 from ..orbits import lvlh_to_th, th_to_lvlh
 from ..orbits.kepler import true_anomaly_from_time
@@ -50,8 +50,9 @@ _CONE_SMOOTHING = 1e-6           # the approach cone's smoothing of |d|, per uni
 
 
 def _window_rules(obj):
+    xp = array_module(obj)
     w = obj.window
-    return Rule("window", ~jnp.any(jnp.isnan(w)) & (w[0] <= w[1]),
+    return Rule("window", ~xp.any(xp.isnan(w)) & (w[0] <= w[1]),
                 "[t_start, t_end] with t_start <= t_end (s since the start; inf allowed)")
 
 
@@ -111,9 +112,10 @@ class KeepOutEllipsoid(_Constraint):
     SHAPES = {"semi_axes": (3,), "centre": (3,), "window": (2,)}
 
     def rules(self):
-        return [Rule("semi_axes", jnp.all(jnp.isfinite(self.semi_axes) & (self.semi_axes > 0)),
+        xp = array_module(self)
+        return [Rule("semi_axes", xp.all(xp.isfinite(self.semi_axes) & (self.semi_axes > 0)),
                      "three positive, finite semi-axes (m)"),
-                Rule("centre", jnp.all(jnp.isfinite(self.centre)), "finite (m)"),
+                Rule("centre", xp.all(xp.isfinite(self.centre)), "finite (m)"),
                 _window_rules(self)]
 
     def harmless(self):
@@ -144,13 +146,14 @@ class ApproachCone(_Constraint):
     SHAPES = {"axis": (3,), "half_angle": (), "range": (), "port": (3,), "window": (2,)}
 
     def rules(self):
-        return [Rule("axis", jnp.all(jnp.isfinite(self.axis))
-                     & (jnp.linalg.norm(self.axis) > 0.0), "a finite, nonzero direction"),
-                Rule("half_angle", (self.half_angle > 0.0) & (self.half_angle < 0.5 * jnp.pi),
+        xp = array_module(self)
+        return [Rule("axis", xp.all(xp.isfinite(self.axis))
+                     & (xp.linalg.norm(self.axis) > 0.0), "a finite, nonzero direction"),
+                Rule("half_angle", (self.half_angle > 0.0) & (self.half_angle < 0.5 * xp.pi),
                      "in (0, pi/2) rad"),
-                Rule("range", jnp.isfinite(self.range) & (self.range > 0.0),
+                Rule("range", xp.isfinite(self.range) & (self.range > 0.0),
                      "a positive, finite range (m)"),
-                Rule("port", jnp.all(jnp.isfinite(self.port)), "finite (m)"),
+                Rule("port", xp.all(xp.isfinite(self.port)), "finite (m)"),
                 _window_rules(self)]
 
     def harmless(self):
@@ -205,11 +208,12 @@ class SpeedLimit(_Constraint):
     SHAPES = {"v0": (), "k": (), "centre": (3,), "window": (2,)}
 
     def rules(self):
-        return [Rule("v0", jnp.isfinite(self.v0) & (self.v0 >= 0.0), "finite and >= 0 (m/s)"),
-                Rule("k", jnp.isfinite(self.k) & (self.k >= 0.0)
+        xp = array_module(self)
+        return [Rule("v0", xp.isfinite(self.v0) & (self.v0 >= 0.0), "finite and >= 0 (m/s)"),
+                Rule("k", xp.isfinite(self.k) & (self.k >= 0.0)
                      & ((self.v0 > 0.0) | (self.k > 0.0)),
                      "finite and >= 0 (1/s), with v0 + k > 0"),
-                Rule("centre", jnp.all(jnp.isfinite(self.centre)), "finite (m)"),
+                Rule("centre", xp.all(xp.isfinite(self.centre)), "finite (m)"),
                 _window_rules(self)]
 
     def harmless(self):
@@ -243,7 +247,8 @@ class ThrustLimit(_Constraint):
     SHAPES = {"u_max": ()}
 
     def rules(self):
-        return [Rule("u_max", jnp.isfinite(self.u_max) & (self.u_max > 0.0),
+        xp = array_module(self)
+        return [Rule("u_max", xp.isfinite(self.u_max) & (self.u_max > 0.0),
                      "a positive, finite acceleration (m/s^2)")]
 
     def harmless(self):
@@ -274,11 +279,12 @@ class PassiveSafety(_Constraint):
     SHAPES = {"semi_axes": (3,), "horizon": (), "centre": (3,), "window": (2,)}
 
     def rules(self):
-        return [Rule("semi_axes", jnp.all(jnp.isfinite(self.semi_axes) & (self.semi_axes > 0)),
+        xp = array_module(self)
+        return [Rule("semi_axes", xp.all(xp.isfinite(self.semi_axes) & (self.semi_axes > 0)),
                      "three positive, finite semi-axes (m)"),
-                Rule("horizon", jnp.isfinite(self.horizon) & (self.horizon > 0.0),
+                Rule("horizon", xp.isfinite(self.horizon) & (self.horizon > 0.0),
                      "a positive, finite drift duration (s)"),
-                Rule("centre", jnp.all(jnp.isfinite(self.centre)), "finite (m)"),
+                Rule("centre", xp.all(xp.isfinite(self.centre)), "finite (m)"),
                 _window_rules(self)]
 
     def static_rules(self) -> None:

@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..compilation import compiled
-from .._validation import Checked, Rule, real_array, require_x64
+from .._validation import Checked, Rule, array_module, real_array, require_x64
 from ..implicit import root
 from ..linalg import RCOND_SINGULAR, member_by_member, qr_rcond, sequential_when_batched
 from ..problems.lqr import weight_rules
@@ -299,8 +299,9 @@ class CareProblem(Checked):
     R: jax.Array
 
     def rules(self):
-        return [Rule("A", jnp.all(jnp.isfinite(self.A)), "finite"),
-                Rule("B", jnp.all(jnp.isfinite(self.B)), "finite"),
+        xp = array_module(self)
+        return [Rule("A", xp.all(xp.isfinite(self.A)), "finite"),
+                Rule("B", xp.all(xp.isfinite(self.B)), "finite"),
                 *weight_rules(self.Q, self.R)]
 
     def static_rules(self) -> None:
