@@ -50,10 +50,10 @@ disk, handed to the pool to be loaded; its call is answered with zeros of the pr
 output shapes (an entry on disk records them) instead of being run; then it waits for the
 pool. The real run that follows finds every program in memory. Tracing the next program
 overlaps the compiling or loading of the last ones, and two compile or load at once on two
-cores. A dry run must
-not depend on the values it computes (a loop until convergence would not end on zeros): it
-is for fixed sequences of solves such as a reproduction's (`jaxlpm reproduce`); an exception
-in it ends the dry run early, and the real run compiles what is left as usual.
+cores. A dry run must not depend on the values it computes (a loop until convergence would
+not end on zeros): it is for fixed sequences of solves such as a reproduction's (`jaxlpm
+reproduce`); an exception in it ends the dry run early, and the real run compiles what is
+left as usual.
 
 The folder is JAXLPM_CACHE_DIR (default ~/.cache/jaxlpm/jax, the CLI's compilation cache);
 JAXLPM_CACHE_DIR="" turns the disk cache off. `clear()` empties the memory cache (the test
@@ -263,8 +263,8 @@ class Compiled:
                            jax_cache_hit=from_jax_cache))
         path = _entry(key) if self.on_disk and not from_jax_cache else None
         # only the fast profile's executables go to disk: "optimized" relies on JAX's own
-        # cache (those were the first seen to fail when loaded, before the cause below was
-        # found)
+        # cache (its executables were the first seen to fail when loaded, before the cause
+        # in the module docstring was found)
         if path is not None and profile() == "fast":
             _store(path, executable)
         return executable
@@ -287,7 +287,7 @@ jax.monitoring.register_event_listener(_count_jax_cache_hit)
 
 
 class _Prefetch:
-    """A `prefetch` dry run's state: the compiles submitted to the pool, by key."""
+    """A `prefetch` dry run's state: the compiles and loads submitted to the pool, by key."""
 
     def __init__(self, workers, log):
         self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="jaxlpm-compile")
@@ -409,12 +409,6 @@ def _deserialize(entry):
         return deserialize_and_load(*entry[:3])
     except Exception:                                   # noqa: BLE001 (unreadable: a miss)
         return None
-
-
-def _load(path):
-    """The executable kept in `path`, or None."""
-    entry = _read(path)
-    return _deserialize(entry) if entry is not None else None
 
 
 def _store(path, executable):

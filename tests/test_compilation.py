@@ -82,7 +82,7 @@ def test_executable_from_jax_cache_is_not_written(tmp_path):
 def test_unreadable_entry_is_a_miss(tmp_path):
     bad = tmp_path / "garbage.bin"
     bad.write_bytes(b"not an executable")
-    assert compilation._load(bad) is None
+    assert compilation._read(bad) is None
 
 
 @pytest.fixture(scope="module")

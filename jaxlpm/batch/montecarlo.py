@@ -30,8 +30,8 @@ from .._validation import require_x64
 from ..collocation import lgl
 from ..status import Status
 from ..verify.fly import flight_model, propagate_linear, propagate_nonlinear
-from .family import SweepFamily, problem_table, solution_record
 from ..mapping import map_in_groups
+from .family import SweepFamily, problem_table, solution_record
 from .sweep import PERCENTILES, converged_statistics, sweep
 
 

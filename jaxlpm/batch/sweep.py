@@ -55,8 +55,8 @@ from tqdm import tqdm
 
 from .._validation import require_x64
 from ..status import Status
-from .family import SweepFamily, solve_member
 from ..mapping import map_in_groups
+from .family import SweepFamily, solve_member
 from .refine import Refinement, check_refinement, climb, masked, refinement_plan, rung_member
 from .store import MANIFEST, SCHEMA_VERSION, ChunkStore, read_chunk
 

@@ -47,13 +47,13 @@ import numpy as np
 
 from ..compilation import compiled
 from .._validation import is_concrete, require_x64
-from ..mapping import map_in_groups
 from ..collocation import lg_nodes_weights, lgr
 from ..collocation.segments import (SegmentedMesh, aligned_breaks, as_segmented,
                                    segmented_lgr, uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
 from ..dynamics.chief import kepler_final_anomaly
 from ..implicit import root
+from ..mapping import map_in_groups
 from ..orbits import time_from_true_anomaly, true_anomaly_from_time
 from ..problems.energy_optimal import control_scale, lvlh_state, model_state
 from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, delta_v_unit,
@@ -435,7 +435,7 @@ def _member(tree, i):
 
 @compiled(static_argnames=("points", "options", "width"))
 def _grouped_pass(problems, breaks, points, options, width):
-    """`_refine_pass` in vmapped groups of `width` members (`jaxlpm.batch.map_in_groups`)."""
+    """`_refine_pass` in vmapped groups of `width` members (`jaxlpm.mapping.map_in_groups`)."""
     grid = lgr(points)
     return map_in_groups(
         lambda pb: _fuel_optimal_transfer(pb[0], SegmentedMesh(breaks=pb[1], grid=grid), options),
@@ -467,7 +467,7 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
     A pass solves the members one after the other (width 1, the default: each homotopy to its
     own number of steps, by `jaxlpm.solve`'s compiled program) or in vmapped groups of
     `width` in one compiled call (`jaxlpm.batch.map_in_groups`). On the CPU one at a time is
-    the faster: yue2016's sweep of 42 members took 3.8 s a pass so against 9-11 s vmapped
+    the faster: yue2016's sweep of 42 members took 3.8 s a pass so, against 9-11 s vmapped
     (2026-12-06, 2-core VM, the fast compile profile; a vmapped homotopy runs every member to
     the slowest one's steps, here 155 Newton iterations against a median of 64, and both
     branches of every `lax.cond`); a wide `width` is for accelerators. Returns the last
