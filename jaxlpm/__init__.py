@@ -11,7 +11,7 @@ A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTr
 `MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`, `ImpulsiveIntercept`,
 `FiniteBurnIntercept`), optional safety constraints on an energy-optimal transfer
 (`KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `ThrustLimit`, `PassiveSafety`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`,
-`lg_mesh(k, n)`, `lgl_mesh(k, n)`: k segments; `segmented_lgr`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
+`lg_mesh(k, n)`, `lgl_mesh(k, n)`: k segments; `segmented_lgr`, `segmented_lg`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
 mesh refinement to the `Tolerance`; a solution that converged but misses it is INACCURATE),
 `verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `design` (mission parameters
 optimised under uncertainty by optax), `io` (save/load, CSV, CCSDS OEM), `lambert`, `Status`,
@@ -27,7 +27,7 @@ from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
 from .collocation.segments import (LGLMesh, LGMesh, LGRMesh, Mesh, SegmentedMesh,  # noqa: E402
                                    aligned_breaks, lg_mesh, lgl_mesh, lgr_mesh, make_mesh,
-                                   segmented_lgr, uniform_breaks)
+                                   segmented_lg, segmented_lgr, segmented_mesh, uniform_breaks)
 from .nlp import ALOptions, HomotopyOptions, NewtonOptions, OptimalControlProblem  # noqa: E402
 from .orbits import KeplerOrbit  # noqa: E402
 from .orbits.lambert import LambertSolution, lambert  # noqa: E402
@@ -63,6 +63,6 @@ __all__ = [
     "Solution", "SolveError", "SpeedLimit", "Status", "ThrustLimit", "__version__", "aligned_breaks", "batch", "burn_arcs",
     "care", "compilation", "constants", "describe", "design", "hcw_lqr",
     "indirect_fuel_optimal", "io", "lambert", "lg",
-    "lgl", "lgr", "make_grid", "min_time_shooting", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lgr",
+    "lgl", "lgr", "make_grid", "min_time_shooting", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lg", "segmented_lgr", "segmented_mesh",
     "solve", "switching_function", "switching_times", "uniform_breaks", "verify",
 ]

@@ -116,10 +116,10 @@ def test_a_keep_out_zone_on_lg_meshes():
 def test_ladders_are_checked():
     with pytest.raises(ValueError, match="scheme must be one of"):
         lpm.MeshLadder(RUNGS, scheme="Chebyshev")
-    with pytest.raises(ValueError, match="refines energy-optimal transfers"):
+    with pytest.raises(ValueError, match="refines energy-optimal, fuel-optimal"):
         lpm.solve(lpm.LQRTransfer(ORBIT.replace(e=0.0), X0, 3000.0, jnp.eye(6), jnp.eye(3)),
                   lpm.MeshLadder(RUNGS))
-    with pytest.raises(ValueError, match="LGR"):
+    with pytest.raises(ValueError, match="LGL"):       # states eliminated segment by segment
         fuel = lpm.FuelOptimalTransfer(ORBIT, jnp.zeros(6), X0, 3000.0, 0.3, 50.0, 1000.0)
         refine_batch(jax.tree_util.tree_map(lambda x: jnp.stack([x]), fuel),
-                     ladder=lpm.MeshLadder(RUNGS, scheme="LG"))
+                     ladder=lpm.MeshLadder(RUNGS, scheme="LGL"))

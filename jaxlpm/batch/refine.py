@@ -30,9 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..collocation import lgr
-from ..collocation.segments import (MESHES, LGRMesh, SegmentedMesh, aligned_breaks,
-                                    uniform_breaks)
+from ..collocation.segments import MESHES, SegmentedMesh, uniform_breaks
 from ..nlp.augmented_lagrangian import ALOptions
 from ..nlp.homotopy import HomotopyOptions
 from ..nlp.newton import NewtonOptions
@@ -117,11 +115,11 @@ class EnergyPlan:
         return dict(breaks=breaks, X=X, U=U, error=refinement_error(solution.stats, tolerance))
 
 
-def _fuel_ladder(segments, points, passes):
-    """The fuel family's single refinement as a ladder: segments[0] uniform, then `passes`
-    aligned meshes of each count."""
-    return MeshLadder(((segments[0], points),)
-                      + tuple((k, points) for k in segments for _ in range(passes)))
+def _fuel_ladder(ladder, passes=fuel_optimal.ALIGN_PASSES):
+    """The fuel family's single refinement on `ladder` as one rung a mesh: its first rung
+    uniform, then `passes` aligned meshes of each rung's shape."""
+    return MeshLadder(ladder.rungs[:1] + tuple(r for r in ladder.rungs for _ in range(passes)),
+                      ladder.scheme)
 
 
 @dataclass(frozen=True)
@@ -131,8 +129,7 @@ class FuelPlan:
     uniform, each next one with a break at every switching time of the member's previous
     solution (`aligned_breaks`)."""
 
-    ladder: MeshLadder = _fuel_ladder(fuel_optimal.REFINE_SEGMENTS,
-                                      fuel_optimal.DEFAULT_POINTS, fuel_optimal.ALIGN_PASSES)
+    ladder: MeshLadder = _fuel_ladder(fuel_optimal.LADDER)
     options: HomotopyOptions | FuelALOptions = HomotopyOptions()
     warm_start = False
 
@@ -147,13 +144,16 @@ class FuelPlan:
         return np.asarray(uniform_breaks(0.0, 1.0, k))
 
     def next_breaks(self, carry, k, previous):
-        runs = fuel_optimal.burn_runs(carry["breaks"], lgr(previous[1]).weights,
+        runs = fuel_optimal.burn_runs(carry["breaks"], self._grid(previous[1]).weights,
                                       carry["throttle"], carry["threshold"])
-        return aligned_breaks(0.0, 1.0, k, fuel_optimal.interior_switches(runs))
+        return fuel_optimal.switch_breaks(k, fuel_optimal.interior_switches(runs))
 
     def solve(self, problem, breaks, prev, shape, previous, options):
-        return fuel_optimal.run(problem, SegmentedMesh(breaks, lgr(shape[1])), self.method,
-                                options)
+        return fuel_optimal.run(problem, SegmentedMesh(breaks, self._grid(shape[1])),
+                                self.method, options)
+
+    def _grid(self, n):
+        return MESHES[self.ladder.scheme][1](n)
 
     def carry(self, solution, breaks, tolerance):
         st = solution.stats
@@ -164,7 +164,7 @@ class FuelPlan:
 @dataclass(frozen=True)
 class MinTimePlan:
     """Minimum-time transfers: method "condensed" on uniform `SegmentedMesh` rungs, or on HCW
-    method "augmented-lagrangian" on `LGRMesh` rungs split by the error; no warm start (each
+    method "augmented-lagrangian" on the ladder's meshes split by the error; no warm start (each
     rung's own minimum-time guess carries the duration and the primer)."""
 
     ladder: MeshLadder
@@ -191,7 +191,8 @@ class MinTimePlan:
         return split_breaks(carry["breaks"], carry["error"], k)
 
     def solve(self, problem, breaks, prev, shape, previous, options):
-        mesh = (SegmentedMesh if self.condensed else LGRMesh)(breaks, lgr(shape[1]))
+        cls, grid = MESHES[self.ladder.scheme]
+        mesh = (SegmentedMesh if self.condensed else cls)(breaks, grid(shape[1]))
         return min_time.run(problem, mesh, self.method, options)
 
     def carry(self, solution, breaks, tolerance):
@@ -227,12 +228,10 @@ class LQRPlan:
 
 def refinement_plan(problems, ladder=None, options=None):
     """The plan (`EnergyPlan`, `FuelPlan`, `MinTimePlan`, `LQRPlan`) of a batch of
-    `problems`, with the family's default ladder and options where they are None. A ladder on
-    LG or LGL meshes is the energy-optimal family's alone (ValueError otherwise)."""
-    if (ladder is not None and ladder.scheme != "LGR"
-            and not isinstance(problems, EnergyOptimalTransfer)):
-        raise ValueError(f"a MeshLadder on {ladder.scheme} meshes refines energy-optimal "
-                         f"transfers; the {type(problems).__name__} family refines on LGR")
+    `problems`, with the family's default ladder and options where they are None. Ladders of
+    LGR, LG and LGL meshes for energy-optimal transfers and HCW minimum time by the augmented
+    Lagrangian; LGR and LG segments for fuel-optimal transfers and method "condensed"
+    (ValueError otherwise: `fuel_optimal.check_ladder`)."""
     if isinstance(problems, EnergyOptimalTransfer):
         if options is None:
             options = ALOptions() if problems.constraints else NewtonOptions()
@@ -241,17 +240,18 @@ def refinement_plan(problems, ladder=None, options=None):
         if options is None:
             options = FuelALOptions() if problems.constraints else HomotopyOptions()
         if ladder is None:
-            ladder = (_fuel_ladder(fuel_optimal.CONSTRAINED_SEGMENTS, fuel_optimal.DEFAULT_POINTS,
-                                   fuel_optimal.ALIGN_PASSES) if problems.constraints
+            ladder = (_fuel_ladder(fuel_optimal.CONSTRAINED_LADDER) if problems.constraints
                       else FuelPlan.ladder)
+        fuel_optimal.check_ladder(ladder)
         return FuelPlan(ladder, options)
     if isinstance(problems, MinimumTimeTransfer):
         if options is None:
             options = ALOptions() if min_time._hcw(problems) else CondensedOptions()
         if ladder is None:
-            ladder = (min_time.LADDER if isinstance(options, ALOptions) else MeshLadder(
-                tuple((k, min_time_condensed.DEFAULT_POINTS)
-                      for k in min_time_condensed.REFINE_SEGMENTS)))
+            ladder = (min_time.LADDER if isinstance(options, ALOptions)
+                      else min_time_condensed.LADDER)
+        if isinstance(options, CondensedOptions):
+            fuel_optimal.check_ladder(ladder)
         return MinTimePlan(ladder, options)
     if isinstance(problems, LQRTransfer):
         if options is not None:

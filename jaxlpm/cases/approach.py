@@ -110,8 +110,8 @@ def solve_fuel(problem, log):
     where the constraints fail between the nodes) did not converge on this case
     (docs/approach.md)."""
     t = time.perf_counter()
-    sol = refine_fuel(problem, FUEL_OPTIONS, Judge(), segments=(FUEL_SEGMENTS,),
-                      points=FUEL_POINTS, passes=0)
+    sol = refine_fuel(problem, FUEL_OPTIONS, Judge(),
+                      MeshLadder(((FUEL_SEGMENTS, FUEL_POINTS),)), passes=0)
     log(f"fuel-optimal with safety constraints: {Status(int(sol.status)).name}, delta-v "
         f"{float(sol.cost):.6f} m/s, error estimate {float(sol.stats['error_position']):.2e} "
         f"m, largest violation {float(jnp.max(sol.stats['constraint_violation'])):.2e}, "

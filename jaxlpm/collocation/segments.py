@@ -1,4 +1,4 @@
-"""Multi-interval (segmented) meshes: the segmented LGR mesh of the fuel-optimal and
+"""Multi-interval (segmented) meshes: the segmented LGR or LG mesh of the fuel-optimal and
 minimum-time families (`SegmentedMesh`, breaks as fractions of [s0, sf]) and the meshes of the
 general transcription on tau in [-1, 1] (`LGRMesh`, `LGMesh`, `LGLMesh`: `Mesh`) (Garg et
 al. 2010, "A unified framework for the numerical solution of optimal control problems using
@@ -28,7 +28,9 @@ from .grid import Grid, lg, lgl, lgr
 @jax.tree_util.register_dataclass
 @dataclasses.dataclass(frozen=True)
 class SegmentedMesh:
-    """K segments of one LGR grid. breaks (K + 1,) increasing; grid: `lgr(n)`."""
+    """K segments of one LGR or LG grid. breaks (K + 1,) increasing; grid: `lgr(n)` or `lg(n)`
+    (the `LGRMesh` and `LGMesh` layouts: LGR segments share their break rows, an LG segment's
+    end is its start plus the Gauss quadrature of the dynamics)."""
 
     breaks: jax.Array
     grid: Grid
@@ -60,18 +62,39 @@ class SegmentedMesh:
 
     @property
     def state_points(self):
-        """s of every segment's state rows (its n points and its end break), (K, n + 1)."""
-        return jnp.concatenate([self.points, self.breaks[1:, None]], axis=1)
+        """s of every segment's state rows, its start and end breaks included: LGR its n
+        points (the first is its start) and its end, (K, n + 1); LG its start, its n Gauss
+        points and its end, (K, n + 2)."""
+        first = [self.breaks[:-1, None]] if self.grid.scheme == "LG" else []
+        return jnp.concatenate([*first, self.points, self.breaks[1:, None]], axis=1)
 
 
-def segmented_lgr(breaks, n: int) -> SegmentedMesh:
-    """Mesh with the given breaks (K + 1 increasing values) and n LGR points per segment."""
+SEGMENTED_SCHEMES = ("LGR", "LG")
+
+
+def segmented_mesh(breaks, n: int, scheme: str = "LGR") -> SegmentedMesh:
+    """Mesh with the given breaks (K + 1 increasing values) and n points per segment of
+    `scheme`: "LGR" (Radau, the default) or "LG" (Gauss)."""
+    if scheme not in SEGMENTED_SCHEMES:
+        raise ValueError(f"a SegmentedMesh is of scheme {' or '.join(SEGMENTED_SCHEMES)} (an "
+                         f"LGL segment collocates both its ends, so its states are not "
+                         f"eliminated segment by segment), got {scheme!r}")
     b = np.asarray(breaks, dtype=np.float64)
     if b.ndim != 1 or b.size < 2:
         raise ValueError(f"breaks must be a 1-D array of at least 2 values, got shape {b.shape}")
     if not np.all(np.isfinite(b)) or not np.all(np.diff(b) > 0.0):
         raise ValueError("breaks must be finite and strictly increasing")
-    return SegmentedMesh(breaks=jnp.asarray(b), grid=lgr(n))
+    return SegmentedMesh(breaks=jnp.asarray(b), grid=MESHES[scheme][1](n))
+
+
+def segmented_lgr(breaks, n: int) -> SegmentedMesh:
+    """Mesh with the given breaks (K + 1 increasing values) and n LGR points per segment."""
+    return segmented_mesh(breaks, n, "LGR")
+
+
+def segmented_lg(breaks, n: int) -> SegmentedMesh:
+    """Mesh with the given breaks (K + 1 increasing values) and n LG points per segment."""
+    return segmented_mesh(breaks, n, "LG")
 
 
 def uniform_breaks(s0: float, sf: float, k: int) -> np.ndarray:
@@ -351,8 +374,14 @@ def lgr_mesh(k: int, n: int, breaks=None) -> LGRMesh:
 
 
 def as_segmented(mesh):
-    """A `SegmentedMesh` as it is; an `LGRMesh` (breaks in tau, e.g. a solution's grid) as the
-    `SegmentedMesh` of the same segments with breaks as fractions (tau + 1) / 2."""
-    if isinstance(mesh, LGRMesh):
+    """A `SegmentedMesh` as it is; an `LGRMesh` or `LGMesh` (breaks in tau, e.g. a solution's
+    grid) as the `SegmentedMesh` of the same segments with breaks as fractions (tau + 1) / 2."""
+    if isinstance(mesh, (LGRMesh, LGMesh)):
         return SegmentedMesh(breaks=0.5 * (mesh.breaks + 1.0), grid=mesh.segment)
     return mesh
+
+
+def tau_mesh(mesh: SegmentedMesh) -> Mesh:
+    """The `LGRMesh` or `LGMesh` of a `SegmentedMesh` (breaks as fractions), in tau in
+    [-1, 1]: the inverse of `as_segmented`."""
+    return MESHES[mesh.grid.scheme][0](breaks=2.0 * mesh.breaks - 1.0, segment=mesh.grid)

@@ -12,7 +12,7 @@ models of the energy-optimal transfers.
 models (`jaxlpm.problems.energy_optimal`): "linear" (Tschauner-Hempel about a Keplerian chief;
 HCW at e = 0), "two-body", "j2". The transcription is the energy-optimal transfer's
 (`transfer_ocp`) in the same independent variable s (the chief's true anomaly, or the J2
-chief's regularised anomaly), on a segmented LGR mesh (Garg et al. 2010) whose breaks are
+chief's regularised anomaly), on a segmented LGR or LG mesh (Garg et al. 2010) whose breaks are
 fractions of [s0, s_f] (of the duration on a circular chief).
 
 eps = 1 is the energy-like problem (J_1 = int |u|^2 / u_max dt, with the thrust bound),
@@ -26,9 +26,9 @@ direction p / S and the throttle (paper eq. 33-34 with the switching function rh
 The fuel mass is reported by the rocket equation m (1 - exp(-Delta v / (Isp g0))) (the paper's
 eq. 2 is its first-order form F dt / (Isp g0), larger by a relative Delta v / (2 Isp g0)).
 
-Condensed transcription (`condensed_lgr`): the dynamics linearised at the collocation points,
+Condensed transcription (`condensed_mesh`): the dynamics linearised at the collocation points,
 x' = A_i x + B_i u + c_i (exact for the linear model; about a reference trajectory for the
-nonlinear ones, `linearised_nlp`), collocated on each LGR segment and the states eliminated,
+nonlinear ones, `linearised_nlp`), collocated on each LGR or LG segment and the states eliminated,
 so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i + o. The solver
 (`jaxlpm.solvers.fuel_optimal`) relinearises the nonlinear models about each solution until
 the state rows stop moving: the fixed point satisfies the nonlinear collocation equations, and
@@ -41,7 +41,7 @@ import jax
 import jax.numpy as jnp
 
 from .._validation import Checked, Rule, array_module, coerce_sequences
-from ..collocation.segments import LGRMesh, SegmentedMesh
+from ..collocation.segments import Mesh, SegmentedMesh, tau_mesh
 from ..constants import G0, J2_EARTH, R_EARTH
 from ..dynamics.chief import anomaly_rate
 from ..linalg import dense_solve
@@ -156,37 +156,59 @@ def rocket_fuel(dv, problem: FuelOptimalTransfer):
 
 
 def _segment_maps(A, B, c, grid, h):
-    """One LGR segment of half length h with x' = A_i x + B_i u + c_i at its n points (A (n,
-    n_x, n_x), B (n, n_x, n_u), c (n, n_x)): the state rows X_r (n, n_x) after its first
-    point, X_r = P x_start + G U + g, from the defects D X = h (A_i X_i + B_i U_i + c_i)
-    (Garg et al. 2010); also M (the defects' matrix in X_r), for the discrete adjoint."""
+    """One LGR or LG segment of half length h with x' = A_i x + B_i u + c_i at its n points
+    (A (n, n_x, n_x), B (n, n_x, n_u), c (n, n_x)): the state rows X_r after its start x,
+    X_r = P x + G U + g, and M, the matrix of its equations in X_r (for the discrete adjoint).
+
+    LGR (Garg et al. 2010's Radau method): X_r is the n - 1 points after the first and the
+    end, from the n defects D X = h (A_i X_i + B_i U_i + c_i) (point 0 is the start).
+    LG (Garg et al. 2010's Gauss method; Benson et al. 2006): X_r is the n Gauss points, from
+    their n defects, and the end x_e = x + h sum_i w_i (A_i X_i + B_i U_i + c_i) (the
+    quadrature row, last)."""
     n, n_x, n_u = grid.n, A.shape[-1], B.shape[-1]
     d0, Dr = grid.D[:, 0], grid.D[:, 1:]
     eye = jnp.eye(n_x)
-    # point i >= 1 is state row i - 1 of X_r: the block sub-diagonal of A_i
-    below = jnp.zeros((n, n, n_x, n_x)).at[jnp.arange(1, n), jnp.arange(n - 1)].set(A[1:])
-    M = jnp.kron(Dr, eye) - h * below.transpose(0, 2, 1, 3).reshape(n * n_x, n * n_x)
-    rhs_x = -jnp.kron(d0[:, None], eye) + h * jnp.zeros((n, n_x, n_x)).at[0].set(
-        A[0]).reshape(n * n_x, n_x)
+    blocks = lambda m: m.transpose(0, 2, 1, 3).reshape(m.shape[0] * n_x, -1)  # noqa: E731
     rhs_u = h * jnp.einsum("ij,iab->iajb", jnp.eye(n), B).reshape(n * n_x, n * n_u)
-    rhs = jnp.concatenate([rhs_x, rhs_u, h * c.reshape(n * n_x, 1)], axis=1)
-    sol = dense_solve(M, rhs)
-    P = sol[:, :n_x].reshape(n, n_x, n_x)
-    G = sol[:, n_x:n_x + n * n_u].reshape(n, n_x, n, n_u)
-    return P, G, sol[:, -1].reshape(n, n_x), M
+    rhs_c = h * c.reshape(n * n_x, 1)
+    rhs_x = -jnp.kron(d0[:, None], eye)
+    if grid.scheme == "LGR":
+        # point i >= 1 is state row i - 1 of X_r: the block sub-diagonal of A_i
+        below = jnp.zeros((n, n, n_x, n_x)).at[jnp.arange(1, n), jnp.arange(n - 1)].set(A[1:])
+        M = jnp.kron(Dr, eye) - h * blocks(below)
+        rhs_x = rhs_x + h * jnp.zeros((n, n_x, n_x)).at[0].set(A[0]).reshape(n * n_x, n_x)
+    else:
+        w = jnp.asarray(grid.weights)
+        diagonal = jnp.zeros((n, n, n_x, n_x)).at[jnp.arange(n), jnp.arange(n)].set(A)
+        quadrature = -h * jnp.concatenate(
+            [(w[:, None, None] * A).transpose(1, 0, 2).reshape(n_x, n * n_x), -eye / h], axis=1)
+        M = jnp.concatenate([jnp.concatenate([jnp.kron(Dr, eye) - h * blocks(diagonal),
+                                              jnp.zeros((n * n_x, n_x))], axis=1),
+                             quadrature])
+        rhs_x = jnp.concatenate([rhs_x, eye])
+        rhs_u = jnp.concatenate(
+            [rhs_u, h * (w[:, None, None] * B).transpose(1, 0, 2).reshape(n_x, n * n_u)])
+        rhs_c = jnp.concatenate([rhs_c, h * (w @ c)[:, None]])
+    rows = M.shape[0] // n_x
+    sol = dense_solve(M, jnp.concatenate([rhs_x, rhs_u, rhs_c], axis=1))
+    P = sol[:, :n_x].reshape(rows, n_x, n_x)
+    G = sol[:, n_x:n_x + n * n_u].reshape(rows, n_x, n, n_u)
+    return P, G, sol[:, -1].reshape(rows, n_x), M
 
 
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
-class CondensedLGR:
-    """Segmented LGR transcription of x' = A_i x + B_i u + c_i with the states eliminated.
+class CondensedMesh:
+    """Segmented LGR or LG transcription of x' = A_i x + B_i u + c_i with the states
+    eliminated (`_segment_maps`); r rows after each segment's start (LGR r = n, LG r = n + 1).
 
-    P (K, n, n_x, n_x), G (K, n, n_x, n, n_u), g (K, n, n_x): state rows after each segment's
-    first point, X_r,k = P_k x_k + G_k U_k + g_k (the last row is the next segment's first
-    state x_{k+1}); Phi (n_x, n_x), E (K, n, n_x, n_u) and o (n_x):
+    P (K, r, n_x, n_x), G (K, r, n_x, n, n_u), g (K, r, n_x): state rows after each segment's
+    start, X_r,k = P_k x_k + G_k U_k + g_k (the last row is the next segment's start x_{k+1});
+    Phi (n_x, n_x), E (K, n, n_x, n_u) and o (n_x):
     x_K = Phi x_0 + sum_{k,i} E_{k,i} U_{k,i} + o; Psi (K, n_x, n_x) = d x_K / d x_{k+1}
-    (the sensitivity of the final state to each segment's end); M (K, n n_x, n n_x) the
-    segments' defect matrices in X_r.
+    (the sensitivity of the final state to each segment's end); M (K, r n_x, r n_x) the
+    segments' equations in X_r; weights (n,) the segment grid's quadrature weights; scheme
+    "LGR" or "LG" (static).
     """
 
     P: jax.Array
@@ -197,9 +219,12 @@ class CondensedLGR:
     o: jax.Array
     Psi: jax.Array
     M: jax.Array
+    weights: jax.Array
+    scheme: str = field(metadata=dict(static=True))
 
     def states(self, x0, U):
-        """All state rows (K, n + 1, n_x) (first point, then X_r) for controls U (K, n, n_u)."""
+        """Every segment's state rows (K, r + 1, n_x) (its start, then X_r) for controls U
+        (K, n, n_u)."""
         def step(x, pgu):
             P, G, g, u = pgu
             rows = P @ x + jnp.einsum("iajb,jb->ia", G, u) + g
@@ -207,24 +232,40 @@ class CondensedLGR:
         _, X = jax.lax.scan(step, x0, (self.P, self.G, self.g, U))
         return X
 
+    def collocation_rows(self, X):
+        """The collocation points' states (K n, n_x) of `states`' rows X (LGR: each segment's
+        first n rows; LG: its Gauss points, after its start)."""
+        n = self.E.shape[1]
+        first = 0 if self.scheme == "LGR" else 1
+        return X[:, first:first + n].reshape(-1, X.shape[-1])
+
+    def mesh_rows(self, X):
+        """`states`' rows X in the layout of the mesh's state rows (`LGRMesh`, `LGMesh`): each
+        segment's rows before the next segment's start, then the final state."""
+        return jnp.concatenate([X[:, :-1].reshape(-1, X.shape[-1]), X[-1, -1:]])
+
     def costates(self, nu):
-        """The defect multipliers Lambda (K, n, n_x) of the final-state multiplier nu:
-        Lambda_k = M_k^-T (e_last x Psi_k^T nu), so that E_i^T nu = h_k B_i^T Lambda_i. Divided
-        by the LGR weights w_i they are the costate estimates at the collocation points
-        (Garg et al. 2010): lambda(s_i) ~ Phi(s_f, s_i)^T nu."""
-        n_x = self.Phi.shape[0]
+        """The costate estimates (K, n, n_x) at the collocation points of the final-state
+        multiplier nu, from the multipliers Lambda_k = M_k^-T (e_last x Psi_k^T nu) of each
+        segment's equations: LGR lambda_i = Lambda_i / w_i, LG lambda_i = Lambda_i / w_i +
+        Lambda_e (Lambda_e the quadrature row's) (Garg et al. 2010, the Radau and Gauss
+        costate estimates), so that E_i^T nu = h_k w_i B_i^T lambda_i either way; they
+        approximate lambda(s_i) = Phi(s_f, s_i)^T nu."""
+        n_x, n = self.Phi.shape[0], self.E.shape[1]
 
         def one(M, Psi):
             last = jnp.zeros((M.shape[0] // n_x, n_x)).at[-1].set(Psi.T @ nu).reshape(-1)
-            return dense_solve(M.T, last[:, None])[:, 0].reshape(-1, n_x)
+            lam = dense_solve(M.T, last[:, None])[:, 0].reshape(-1, n_x)
+            points = lam[:n] / self.weights[:, None]
+            return points if self.scheme == "LGR" else points + lam[n]
         return jax.vmap(one)(self.M, self.Psi)
 
 
-def condensed_lgr(A, B, mesh: SegmentedMesh, c=None) -> CondensedLGR:
-    """Transcribe x' = A x + B u + c on a `SegmentedMesh` and eliminate the states (see
-    `CondensedLGR`). A (n_x, n_x) and B (n_x, n_u) constant, or per collocation point
-    (K, n, n_x, n_x) and (K, n, n_x, n_u); c (K, n, n_x) or None (0). Continuity across
-    segments is exact (shared break states)."""
+def condensed_mesh(A, B, mesh: SegmentedMesh, c=None) -> CondensedMesh:
+    """Transcribe x' = A x + B u + c on a `SegmentedMesh` (LGR or LG) and eliminate the
+    states (see `CondensedMesh`). A (n_x, n_x) and B (n_x, n_u) constant, or per collocation
+    point (K, n, n_x, n_x) and (K, n, n_x, n_u); c (K, n, n_x) or None (0). Continuity
+    across segments is exact (each segment starts from the previous one's end)."""
     K, n = mesh.n_segments, mesh.grid.n
     n_x, n_u = A.shape[-1], B.shape[-1]
     A = jnp.broadcast_to(A, (K, n, n_x, n_x))
@@ -239,12 +280,8 @@ def condensed_lgr(A, B, mesh: SegmentedMesh, c=None) -> CondensedLGR:
         return Psi @ P_k, (Psi, jnp.einsum("ab,bjc->jac", Psi, G_k), Psi @ g_k)
 
     Phi, (Psi, E, o) = jax.lax.scan(back, jnp.eye(n_x), (P_end, G_end, g_end), reverse=True)
-    return CondensedLGR(P=P, G=G, g=g, Phi=Phi, E=E, o=jnp.sum(o, axis=0), Psi=Psi, M=M)
-
-
-def mesh_grid(mesh: SegmentedMesh) -> LGRMesh:
-    """The mesh (breaks as fractions of [s0, s_f]) as an `LGRMesh` in tau in [-1, 1]."""
-    return LGRMesh(breaks=2.0 * mesh.breaks - 1.0, segment=mesh.grid)
+    return CondensedMesh(P=P, G=G, g=g, Phi=Phi, E=E, o=jnp.sum(o, axis=0), Psi=Psi, M=M,
+                         weights=jnp.asarray(mesh.grid.weights), scheme=mesh.grid.scheme)
 
 
 @jax.tree_util.register_dataclass
@@ -254,7 +291,7 @@ class FuelNLP:
     sum_i c_i l_eps(|v_i|) subject to sum_i E_i v_i = d, |v_i| <= 1 (v = u / u_max at the
     collocation points), with what maps its solution back.
 
-    E (K n, 6, 3), c (K n,), d (6,); cond: the `CondensedLGR` in s (the solver's units of
+    E (K n, 6, 3), c (K n,), d (6,); cond: the `CondensedMesh` in s (the solver's units of
     `transfer_ocp`); mesh_s: the mesh with breaks in s; x0, xf: scaled boundary states;
     umax: u_max in the solver's control unit; rate: n dt/ds at the points (K n,).
     """
@@ -262,7 +299,7 @@ class FuelNLP:
     E: jax.Array
     c: jax.Array
     d: jax.Array
-    cond: CondensedLGR
+    cond: CondensedMesh
     mesh_s: SegmentedMesh
     x0: jax.Array
     xf: jax.Array
@@ -275,20 +312,20 @@ class FuelNLP:
         return (self.umax * controls(nu, self.E, self.c, eps)).reshape(K, n, 3)
 
     def states(self, nu, eps):
-        """The state rows (K, n + 1, 6) that those controls give."""
+        """Every segment's state rows (`CondensedMesh.states`) that those controls give."""
         return self.cond.states(self.x0, self.controls(nu, eps))
 
 
 @dataclass(frozen=True)
 class Transcription:
     """The problem on a mesh (built once per solve, not a pytree): the energy-optimal
-    transfer's `OptimalControlProblem` `ocp` on the `LGRMesh` `grid` (the same mesh in tau),
+    transfer's `OptimalControlProblem` `ocp` on the `LGRMesh` or `LGMesh` `grid` (the same mesh in tau),
     its chief samples `chief` at the state rows, and the chief integration's flag `ok`."""
 
     problem: FuelOptimalTransfer
     mesh: SegmentedMesh
     ocp: object
-    grid: LGRMesh
+    grid: Mesh
     chief: object
     ok: jax.Array
 
@@ -310,7 +347,7 @@ class Transcription:
         A, B, c = jax.vmap(lin)(s, Xc, ocp.node_data)
         mesh_s = SegmentedMesh(breaks=ocp.s0 + (ocp.sf - ocp.s0) * self.mesh.breaks,
                                grid=self.mesh.grid)
-        cond = condensed_lgr(A.reshape(K, n, 6, 6), B.reshape(K, n, 6, 3), mesh_s,
+        cond = condensed_mesh(A.reshape(K, n, 6, 6), B.reshape(K, n, 6, 3), mesh_s,
                              c.reshape(K, n, 6))
         o = problem.orbit
         rate = o.mean_motion / jax.vmap(anomaly_rate)(
@@ -325,7 +362,7 @@ class Transcription:
 
 def transcribe(problem: FuelOptimalTransfer, mesh: SegmentedMesh) -> Transcription:
     """The problem on `mesh` (breaks as fractions of [s0, s_f])."""
-    grid = mesh_grid(mesh)
+    grid = tau_mesh(mesh)
     ocp, chief, ok = transfer_ocp(problem.energy_problem(), grid)
     return Transcription(problem, mesh, ocp, grid, chief, ok)
 
@@ -337,19 +374,18 @@ def delta_v_unit(problem: FuelOptimalTransfer):
 
 def collocated_trajectory(tr: Transcription, nlp: FuelNLP, rows, controls_si, nu, unit,
                           magnitude=0.0) -> Collocated:
-    """The `Collocated` trajectory (SI, LVLH) on the transcription's `LGRMesh`, with the
-    chief's clock: the scaled state rows `rows` (K n + 1, 6) in LVLH, the controls
-    `controls_si` (K n, 3) in m/s^2 (`magnitude` > 0: a constant-magnitude engine), and the
-    costates of the final-state multiplier nu: dJ/dx (J in units of `unit` per unit of the
-    solver's cost; `CondensedLGR.costates` over the LGR weights, mapped by the state's
-    scaling)."""
+    """The `Collocated` trajectory (SI, LVLH) on the transcription's `LGRMesh` or `LGMesh`,
+    with the chief's clock: the scaled state rows `rows` (the mesh's `n_rows`, 6;
+    `CondensedMesh.mesh_rows`) in LVLH, the controls `controls_si` (K n, 3) in m/s^2
+    (`magnitude` > 0: a constant-magnitude engine), and the costates of the final-state
+    multiplier nu: dJ/dx (J in units of `unit` per unit of the solver's cost;
+    `CondensedMesh.costates`, mapped by the state's scaling)."""
     ocp, chief, energy = tr.ocp, tr.chief, tr.problem.energy_problem()
-    K, n = tr.mesh.n_segments, tr.mesh.grid.n
-    rows_s = jnp.concatenate([nlp.mesh_s.points.reshape(-1), ocp.sf[None]])
-    lam = (nlp.cond.costates(nu) / tr.mesh.grid.weights[None, :, None]).reshape(K * n, 6)
+    rows_s = jnp.concatenate([nlp.mesh_s.state_points[:, :-1].reshape(-1), ocp.sf[None]])
+    lam = nlp.cond.costates(nu).reshape(-1, 6)
     costates = unit * jax.vmap(
         lambda p, s: jax.vjp(lambda x: model_state(energy, x, s), jnp.zeros(6))[1](p)[0])(
-            lam, rows_s[:-1])
+            lam, nlp.mesh_s.points.reshape(-1))
     states = jax.vmap(lambda x, s: lvlh_state(energy, x, s))(rows, rows_s)
     idx = collocated_rows(tr.grid)
     return Collocated(
@@ -362,7 +398,7 @@ def collocated_trajectory(tr: Transcription, nlp: FuelNLP, rows, controls_si, nu
 
 
 def to_solution(tr: Transcription, nlp: FuelNLP, res, valid, extra=None):
-    """The `Solution` (SI, LVLH; `Collocated` on the mesh's `LGRMesh`, with the chief's clock)
+    """The `Solution` (SI, LVLH; `Collocated` on the mesh in tau, with the chief's clock)
     of the homotopy's result `res` on the condensed problem `nlp`: the eps-smoothed optimum's
     controls and states, cost = delta-v int |u| dt (m/s), costates dJ/dx (m/s per m and per
     m/s; `collocated_trajectory`), zeros where `valid` is False.
@@ -387,8 +423,7 @@ def to_solution(tr: Transcription, nlp: FuelNLP, res, valid, extra=None):
 
     def outputs(nu, eps):
         v = controls(nu, nlp.E, nlp.c, eps)
-        X = nlp.cond.states(nlp.x0, (nlp.umax * v).reshape(K, n, 3))
-        rows = jnp.concatenate([X[:, :n].reshape(K * n, 6), X[-1, -1:]])
+        rows = nlp.cond.mesh_rows(nlp.cond.states(nlp.x0, (nlp.umax * v).reshape(K, n, 3)))
         miss = lvlh_state(energy, rows[-1], ocp.sf) - problem.xf
         err = jnp.stack([safe_norm(miss[:3]), safe_norm(miss[3:])])
         # coasting points have v = 0 exactly: the norm's derivative must be 0 there, not NaN

@@ -33,12 +33,13 @@ def solve(problem, grid=None, *, method=None, options=None, tolerance=None,
           throw=True) -> Solution:
     """Solve a transfer problem of any family; returns a `Solution` (SI; module table).
 
-    grid: a `Grid` (lgl(n), lg(n), lgr(n): n points), an `LGRMesh`, for energy-optimal transfers
-    an `LGMesh` or `LGLMesh` too (lg_mesh(k, n), lgl_mesh(k, n)), or, for fuel-optimal transfers
-    and minimum-time method "condensed", a `SegmentedMesh` (breaks as fractions of the
-    transfer's anomaly span); None: the family's default (concrete input: mesh refinement on the
-    family's ladder); for energy-optimal transfers a `MeshLadder`: refinement on that ladder
-    (`MeshLadder(rungs, scheme="LG")`: on LG meshes). method: None for the family's default
+    grid: a `Grid` (lgl(n), lg(n), lgr(n): n points), a `Mesh` (lgr_mesh(k, n), lg_mesh(k, n),
+    lgl_mesh(k, n)), or, for fuel-optimal transfers and minimum-time method "condensed", a
+    `SegmentedMesh` (segmented_lgr(breaks, n), segmented_lg(breaks, n); breaks as fractions of
+    the transfer's anomaly span); None: the family's default (concrete input: mesh refinement
+    on the family's ladder); for energy-optimal, fuel-optimal and minimum-time transfers a
+    `MeshLadder`: refinement on that ladder (`MeshLadder(rungs, scheme="LG")`: on LG meshes;
+    the fuel-optimal family and method "condensed" on LGR or LG segments). method: None for the family's default
     (minimum time: "condensed" on a `SegmentedMesh`). options: the method's frozen options
     object (`NewtonOptions`, `ALOptions`, `HomotopyOptions`, `CondensedOptions`) or None for its
     defaults.

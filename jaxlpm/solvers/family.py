@@ -46,9 +46,9 @@ class FamilySolver:
         ladder = grid if isinstance(grid, MeshLadder) else None
         if ladder is not None:
             if not self.ladders:
-                raise ValueError(f"a MeshLadder refines energy-optimal transfers; a "
-                                 f"{self.problem.__name__} refines on its own ladder "
-                                 f"(solve(problem) without a grid)")
+                raise ValueError(f"a MeshLadder refines energy-optimal, fuel-optimal and "
+                                 f"minimum-time transfers; a {self.problem.__name__} refines "
+                                 f"on its own ladder (solve(problem) without a grid)")
             if not is_concrete(problem) or method not in (None, refine_method):
                 raise ValueError(f"refinement on a MeshLadder needs a concrete problem (not "
                                  f"under jit or vmap: use jaxlpm.batch.refine.refine_batch) "

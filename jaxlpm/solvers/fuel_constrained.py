@@ -39,7 +39,7 @@ import jax
 import jax.numpy as jnp
 
 from ..compilation import compiled
-from ..collocation.segments import SegmentedMesh
+from ..collocation.segments import SegmentedMesh, tau_mesh
 from ..implicit import root
 from ..nlp.augmented_lagrangian import (ALOptions, al_kkt_residual, augmented_lagrangian,
                                         stack_kkt_point)
@@ -50,8 +50,7 @@ from ..nlp.transcription import objective, unpack
 from ..problems import safety
 from ..problems.energy_optimal import (OnModelData, control_scale, cost_scale, to_solution,
                                        transfer_ocp)
-from ..problems.fuel_optimal import (FuelOptimalTransfer, delta_v_unit, mesh_grid,
-                                     rocket_fuel)
+from ..problems.fuel_optimal import FuelOptimalTransfer, delta_v_unit, rocket_fuel
 from ..problems.scaling import safe_norm
 from ..status import Status
 from .energy_optimal import rung_options
@@ -204,7 +203,7 @@ def unpack_kkt(w, res):
 def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
     valid = problem.validity()
     problem = problem.sanitized(valid)
-    grid = mesh_grid(mesh)
+    grid = tau_mesh(mesh)
     ocp, energy_ocp, chief, ok, energy = constrained_ocp(problem, grid)
     unit = delta_v_unit(problem)
     fixed = jax.lax.stop_gradient((energy, ocp, energy_ocp))

@@ -1,12 +1,12 @@
 """Fuel-optimal bounded-thrust transfers (`jaxlpm.problems.fuel_optimal`) on the linear
-(Tschauner-Hempel, HCW at e = 0), two-body and J2 models by segmented LGR collocation and the
-energy-to-fuel homotopy (`jaxlpm.nlp.homotopy`), with mesh refinement at the switching times
+(Tschauner-Hempel, HCW at e = 0), two-body and J2 models by segmented LGR or LG collocation and
+the energy-to-fuel homotopy (`jaxlpm.nlp.homotopy`), with mesh refinement at the switching times
 (Yue & Duan 2016's pipeline: an energy-optimal Radau pseudospectral solution, then the
 homotopy to the bang-bang fuel optimum).
 
 `jaxlpm.solve(problem, mesh)` (`run`): one mesh (jit; vmap over problems and meshes of one
 shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy tolerance
-(`refine_transfer`). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method on
+(`refine_transfer`; `solve(problem, MeshLadder(rungs, scheme="LG"))` on LG segments). `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method on
 the linear model, shooting on the costates with the smoothed switching law, continued in eps
 from the LGR costates. `refine_fuel_optimal(problems, segments, points)`: host-side passes over
 meshes with a break at every switching time of the previous solution (`aligned_breaks`), the
@@ -47,9 +47,9 @@ import numpy as np
 
 from ..compilation import compiled
 from .._validation import is_concrete, require_x64
-from ..collocation import lg_nodes_weights, lgr
-from ..collocation.segments import (SegmentedMesh, aligned_breaks, as_segmented,
-                                   segmented_lgr, uniform_breaks)
+from ..collocation import lg_nodes_weights
+from ..collocation.segments import (SEGMENTED_SCHEMES, SegmentedMesh, aligned_breaks,
+                                   as_segmented, segmented_lgr, segmented_mesh, uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
 from ..dynamics.chief import kepler_final_anomaly
 from ..implicit import root
@@ -63,6 +63,7 @@ from ..solution import Solution
 from ..status import Status
 from .family import FamilySolver
 from .fuel_constrained import FuelALOptions, constrained_fuel_optimal
+from .refine import MeshLadder
 
 MIN_POINTS = 3
 BURNING = 1e-9             # a collocation point fires where its throttle exceeds this
@@ -97,11 +98,6 @@ def switching_function(sol, t):
     return 1.0 - jnp.linalg.norm(primer(sol, t))
 
 
-def collocation_rows(X):
-    """The collocation points' state rows (K n, 6) of segment state rows X (K, n + 1, 6)."""
-    return X[:, :-1].reshape(-1, X.shape[-1])
-
-
 def _linearisations(tr, options: HomotopyOptions):
     """(nlp, homotopy result, reference, runs, last change): the homotopy on the condensed
     problem `nlp` linearised about the collocation states `reference` (K n, 6), relinearised
@@ -111,7 +107,7 @@ def _linearisations(tr, options: HomotopyOptions):
     def run_at(ref, nu0):
         nlp = tr.linearised(ref)
         res = run_homotopy(nlp.E, nlp.c, nlp.d, nu0, options)
-        return nlp, res, collocation_rows(nlp.states(res.nu, res.eps))
+        return nlp, res, nlp.cond.collocation_rows(nlp.states(res.nu, res.eps))
 
     ref = jnp.zeros((tr.mesh.n_points, 6), tr.ocp.params["x0"].dtype)
     nlp, res, X = run_at(ref, jnp.zeros_like(tr.ocp.params["x0"]))
@@ -142,7 +138,8 @@ def _optimality(z, problem, mesh, eps):
         return residual(z, nlp.E, nlp.c, nlp.d, eps)
     nu, ref = z
     nlp = transcribe(problem, mesh).linearised(ref)
-    return residual(nu, nlp.E, nlp.c, nlp.d, eps), ref - collocation_rows(nlp.states(nu, eps))
+    return (residual(nu, nlp.E, nlp.c, nlp.d, eps),
+            ref - nlp.cond.collocation_rows(nlp.states(nu, eps)))
 
 
 @root(_optimality, zero_nonfinite=True)
@@ -179,12 +176,12 @@ def check_grid(mesh, method):
     mesh = as_segmented(mesh)
     if not isinstance(mesh, SegmentedMesh):
         raise ValueError(f"the grid of a fuel-optimal transfer is a SegmentedMesh "
-                         f"(segmented_lgr(breaks, n), breaks as fractions of [s0, s_f]) or a "
-                         f"solution's LGRMesh, "
+                         f"(segmented_lgr(breaks, n) or segmented_lg(breaks, n), breaks as "
+                         f"fractions of [s0, s_f]) or a solution's LGRMesh or LGMesh, "
                          f"got {type(mesh).__name__}")
     if mesh.grid.n < MIN_POINTS:
-        raise ValueError(f"fuel-optimal transfers need at least {MIN_POINTS} LGR points per "
-                         f"segment, got {mesh.grid.n}")
+        raise ValueError(f"fuel-optimal transfers need at least {MIN_POINTS} "
+                         f"{mesh.grid.scheme} points per segment, got {mesh.grid.n}")
     if is_concrete(mesh.breaks):
         b = np.asarray(mesh.breaks)
         if b.ndim == 1 and not (abs(b[0]) < 1e-15 and abs(b[-1] - 1.0) < 1e-15):
@@ -200,12 +197,13 @@ def default_method(problem, mesh=None):
 
 
 def run(problem, mesh, method, options) -> Solution:
-    """Solve on one segmented LGR mesh whose breaks are fractions of the independent
+    """Solve on one segmented LGR or LG mesh whose breaks are fractions of the independent
     variable's span [s0, s_f] (from 0 to 1; of the transfer time on a circular chief).
     jit-compiled once per mesh shape and options; vmap-able over problems and
-    meshes. A solution's own `grid` (an `LGRMesh` in tau) is accepted too. Traced bad input
-    gives INVALID_INPUT. Method "homotopy" (`HomotopyOptions`) for transfers without safety
-    constraints, "augmented-lagrangian" (`FuelALOptions`) for those with them."""
+    meshes. A solution's own `grid` (an `LGRMesh` or `LGMesh` in tau) is accepted too. Traced
+    bad input gives INVALID_INPUT. Method "homotopy" (`HomotopyOptions`) for transfers
+    without safety constraints, "augmented-lagrangian" (`FuelALOptions`) for those with
+    them."""
     if method != default_method(problem):
         raise ValueError(
             "a fuel-optimal transfer with safety constraints is solved by method "
@@ -220,36 +218,66 @@ def run(problem, mesh, method, options) -> Solution:
     return _compiled(problem, as_segmented(mesh), options)
 
 
-REFINE_SEGMENTS = (DEFAULT_SEGMENTS, 48, 96)
-# with safety constraints the states are kept and every Newton-KKT step factors a dense KKT
-# matrix (~1900 unknowns at 16 x 8 points: 0.1-0.2 s), so refinement stays on fewer segments
-CONSTRAINED_SEGMENTS = (16, 24)
 ALIGN_PASSES = 3     # passes per segment count: the switches move as the mesh follows them
 
 
-def refine_transfer(problem, options, judge, segments=None,
-                    points: int = DEFAULT_POINTS, passes: int = ALIGN_PASSES):
-    """`solve(problem)` without a grid: a uniform mesh of segments[0] LGR segments of `points`
-    points, then, for each count in `segments`, up to `passes` meshes with a break at every
-    switching time of the previous solution (`aligned_breaks`: the solution's switches move
-    with the mesh, so the breaks follow them), until the error estimate meets the tolerance
-    (`judge` leaves it SUCCESS) or the last mesh (then INACCURATE). A solve that fails
-    outright (not converged) ends the refinement with its status. stats gain mesh_passes.
-    segments: default `REFINE_SEGMENTS`, `CONSTRAINED_SEGMENTS` with safety constraints."""
+def _ladder(segments, points=DEFAULT_POINTS, scheme="LGR"):
+    return MeshLadder(tuple((k, points) for k in segments), scheme)
+
+
+LADDER = _ladder((DEFAULT_SEGMENTS, 48, 96))
+"""The segment counts `solve(problem)` refines over (LGR, `DEFAULT_POINTS` a segment)."""
+# with safety constraints the states are kept and every Newton-KKT step factors a dense KKT
+# matrix (~1900 unknowns at 16 x 8 points: 0.1-0.2 s), so refinement stays on fewer segments
+CONSTRAINED_LADDER = _ladder((16, 24))
+
+
+def check_ladder(ladder: MeshLadder) -> None:
+    """A fuel-optimal ladder is of LGR or LG segments of at least `MIN_POINTS` points."""
+    if ladder.scheme not in SEGMENTED_SCHEMES:
+        raise ValueError(f"fuel-optimal and condensed minimum-time transfers refine on LGR or "
+                         f"LG segments (their states are eliminated segment by segment, and an "
+                         f"LGL segment collocates both its ends), got a {ladder.scheme} ladder")
+    if min(n for _, n in ladder.rungs) < MIN_POINTS:
+        raise ValueError(f"the ladder's segments need at least {MIN_POINTS} points, got "
+                         f"{ladder.rungs}")
+
+
+def switch_breaks(k: int, switches) -> np.ndarray:
+    """k segments of [0, 1] with a break at every switch (`aligned_breaks`), or uniform ones
+    where k segments cannot hold them all (k below the arcs between the switches)."""
+    if k < np.size(switches) + 1:
+        return uniform_breaks(0.0, 1.0, k)
+    return aligned_breaks(0.0, 1.0, k, switches)
+
+
+def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None,
+                    passes: int = ALIGN_PASSES):
+    """`solve(problem)` without a grid, or `solve(problem, ladder)`: a uniform mesh of the
+    ladder's first rung (K segments of n points, LGR or LG by `ladder.scheme`), then, for
+    each rung, up to `passes` meshes of its shape with a break at every switching time of
+    the previous solution (`aligned_breaks`: the solution's switches move with the mesh, so
+    the breaks follow them; `switch_breaks`), until the error estimate meets the tolerance
+    (`judge` leaves it SUCCESS) or the last mesh (then INACCURATE). A solve that fails outright (not
+    converged) ends the refinement with its status. stats gain mesh_passes.
+    ladder: default `LADDER`, `CONSTRAINED_LADDER` with safety constraints."""
     method = default_method(problem)
-    if segments is None:
-        segments = CONSTRAINED_SEGMENTS if problem.constraints else REFINE_SEGMENTS
+    if ladder is None:
+        ladder = CONSTRAINED_LADDER if problem.constraints else LADDER
+    check_ladder(ladder)
     if options is None:
         options = FuelALOptions() if problem.constraints else HomotopyOptions()
 
-    def solve_on(breaks):
-        return judge(run(problem, segmented_lgr(breaks, points), method, options))
+    def solve_on(breaks, points):
+        return judge(run(problem, segmented_mesh(breaks, points, ladder.scheme), method,
+                         options))
 
-    solution, done = solve_on(uniform_breaks(0.0, 1.0, segments[0])), 1
-    for count in (count for count in segments for _ in range(passes)):
+    (k0, n0), done = ladder.rungs[0], 1
+    solution = solve_on(uniform_breaks(0.0, 1.0, k0), n0)
+    for k, n in (rung for rung in ladder.rungs for _ in range(passes)):
         if int(solution.status) != Status.INACCURATE:
             break
-        solution = solve_on(aligned_breaks(0.0, 1.0, count, switching_fractions(solution)))
+        solution = solve_on(switch_breaks(k, switching_fractions(solution)), n)
         done += 1
     return solution.replace(stats=dict(solution.stats, mesh_passes=done))
 
@@ -260,7 +288,7 @@ FAMILY = FamilySolver(
     default_grid=lambda problem: segmented_lgr(uniform_breaks(0.0, 1.0, DEFAULT_SEGMENTS),
                                                DEFAULT_POINTS),
     check_grid=check_grid, default_method=default_method, refine=refine_transfer,
-    refine_method=default_method)
+    refine_method=default_method, ladders=True)
 
 
 @jax.tree_util.register_dataclass
@@ -433,22 +461,21 @@ def _member(tree, i):
     return jax.tree_util.tree_map(lambda x: x[i], tree)
 
 
-@compiled(static_argnames=("points", "options", "width"))
-def _grouped_pass(problems, breaks, points, options, width):
+@compiled(static_argnames=("options", "width"))
+def _grouped_pass(problems, breaks, grid, options, width):
     """`_refine_pass` in vmapped groups of `width` members (`jaxlpm.mapping.map_in_groups`)."""
-    grid = lgr(points)
     return map_in_groups(
         lambda pb: _fuel_optimal_transfer(pb[0], SegmentedMesh(breaks=pb[1], grid=grid), options),
         (problems, breaks), width)
 
 
-def _refine_pass(problems, breaks, points, options, width):
-    """One pass of `refine_fuel_optimal`: every member on its own mesh (breaks (B, K + 1)).
+def _refine_pass(problems, breaks, grid, options, width):
+    """One pass of `refine_fuel_optimal`: every member on its own mesh (breaks (B, K + 1),
+    segments of `grid`).
     Width 1: member by member through the one-problem program (`jaxlpm.solve`'s, whatever
     the number of members), the solutions stacked on the host; else `_grouped_pass`."""
     if width > 1:
-        return _grouped_pass(problems, breaks, points, options, width)
-    grid = lgr(points)
+        return _grouped_pass(problems, breaks, grid, options, width)
     host = jax.tree_util.tree_map(np.asarray, problems)
     solutions = [_compiled(_member(host, i), SegmentedMesh(breaks=breaks[i], grid=grid), options)
                  for i in range(np.shape(breaks)[0])]
@@ -458,11 +485,11 @@ def _refine_pass(problems, breaks, points, options, width):
 def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, points: int = 8,
                         fuel_tol: float = 1e-4, max_passes: int = 5,
                         options: HomotopyOptions = HomotopyOptions(),
-                        width: int = 1) -> Solution:
+                        width: int = 1, scheme: str = "LGR") -> Solution:
     """Solve a batch of problems (leading axis on every array leaf but scalars, which the
     members share; one problem: add it with `jax.tree_util.tree_map(lambda x: x[None], p)`)
-    on `segments` LGR segments of `points`
-    points: first a uniform mesh, then meshes with breaks at the previous switching times,
+    on `segments` segments of `points` points (`scheme` "LGR", the default, or "LG"):
+    first a uniform mesh, then meshes with breaks at the previous switching times,
     until every member's fuel changes by less than fuel_tol (relative) or max_passes.
     A pass solves the members one after the other (width 1, the default: each homotopy to its
     own number of steps, by `jaxlpm.solve`'s compiled program) or in vmapped groups of
@@ -488,12 +515,12 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
         _member(problems, i).validate()
     if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
         raise ValueError(f"width must be a positive integer, got {width!r}")
-    grid_mesh = segmented_lgr(uniform_breaks(0.0, 1.0, segments), points)
+    grid_mesh = segmented_mesh(uniform_breaks(0.0, 1.0, segments), points, scheme)
     check_grid(grid_mesh, "homotopy")
     breaks = np.tile(np.asarray(grid_mesh.breaks), (size[0], 1))
     fuels = []
     for _ in range(max_passes):
-        sol = _refine_pass(problems, breaks, points, options, int(width))
+        sol = _refine_pass(problems, breaks, grid_mesh.grid, options, int(width))
         fuels.append(np.asarray(sol.stats["fuel"]))
         change = (np.abs(fuels[-1] - fuels[-2]) / np.abs(fuels[-1]) if len(fuels) > 1
                   else np.full(size[0], np.inf))
@@ -501,7 +528,7 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
             break
         new = []
         for i in range(size[0]):
-            new.append(aligned_breaks(0.0, 1.0, segments, switching_fractions(_member(sol, i))))
+            new.append(switch_breaks(segments, switching_fractions(_member(sol, i))))
         breaks = np.stack(new)
     stats = dict(sol.stats, passes=np.full(size[0], len(fuels)),
                  fuel_by_pass=np.stack(fuels, axis=1), fuel_change=change)

@@ -25,7 +25,9 @@ Thm 17.5: below it the solution is a saddle of the inner problem).
 The inner Newton-KKT systems are solved by `DenseKKT`: for transfers of several orbits the
 condensed elimination (`CondensedSecondOrder`) leaves a stationarity error above the inner
 tolerance (its steps lose digits as the states grow along the orbits), so those solves ended
-at the iteration limit; the guess's QP and the convexity test use the condensed system.
+at the iteration limit; the guess's QP and the convexity test use the condensed system
+(on LG and LGL meshes, whose quadrature and linkage rows it does not condense, the dense KKT
+system and a null-space basis from the dense Jacobian's QR).
 """
 
 import dataclasses
@@ -38,14 +40,15 @@ import numpy as np
 from ..compilation import compiled
 from .._validation import is_concrete
 from ..collocation import Grid, lg
-from ..collocation.segments import LGRMesh, SegmentedMesh
-from ..linalg import cholesky_solve
+from ..collocation.segments import LGLMesh, LGMesh, Mesh, SegmentedMesh
+from ..linalg import cholesky_solve, complete_qr
 from ..dynamics import hcw_flow
 from ..problems.min_time import (MinimumTimeTransfer, duration_lower_bound, energy_ocp,
                                  min_time_ocp, to_solution)
 from ..nlp.ocp import PathPenalty
 from ..nlp.reachable import support, support_minimiser
-from ..nlp.transcription import equality, pack, state_tau, unpack
+from ..nlp.transcription import (equality, equality_jacobian, lagrangian_hessian, pack,
+                                 point_indices, state_tau, unpack)
 from ..status import Status
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
 from ..nlp.condensed import CondensedSecondOrder
@@ -121,7 +124,7 @@ def initial_guess(ocp, grid, duration_floor):
     eo = energy_ocp(ocp, S, weights)
     zero = pack(jnp.zeros((state_tau(grid).shape[0], ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)),
                 eo.sf, eo)
-    z_qp, lam_qp = newton_step(eo, grid, zero, CondensedSecondOrder)
+    z_qp, lam_qp = newton_step(eo, grid, zero, _linear_algebra(grid))
     X, U, _ = unpack(z_qp, eo, grid)
     norm = jnp.linalg.norm(U, axis=1, keepdims=True)
     U = U / jnp.where(norm > 0.0, norm, 1.0)
@@ -144,6 +147,26 @@ def _direction_penalty(nu, rho, n_bounds=0):
                        jnp.zeros(n_bounds, nu.dtype), rho)
 
 
+def _linear_algebra(grid):
+    """`CondensedSecondOrder` on single grids and `LGRMesh`es, `DenseKKT` on LG and LGL
+    meshes (their quadrature and linkage rows are not condensed)."""
+    return DenseKKT if isinstance(grid, (LGMesh, LGLMesh)) else CondensedSecondOrder
+
+
+def _reduced_hessian(ocp, grid, z, lam):
+    """(Z^T H Z, the controls' rows of Z (n, 3, k)): the Lagrangian Hessian H at (z, lam) on
+    a basis Z of the linearised constraints' null space, `CondensedSecondOrder`'s T where it
+    applies, else the complete QR of the dense Jacobian's transpose."""
+    idx_u = point_indices(ocp, grid)[:, ocp.n_x:]
+    if _linear_algebra(grid) is CondensedSecondOrder:
+        la = CondensedSecondOrder(ocp, grid, z)
+        _, _, M0, T = la.hessian(la.prepare(z, lam), z, lam)
+        return M0, T[idx_u]
+    A = equality_jacobian(z, ocp, grid)
+    Z = complete_qr(A.T)[0][:, A.shape[0]:]
+    return Z.T @ lagrangian_hessian(z, lam, ocp, grid) @ Z, Z[idx_u]
+
+
 def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
     """The first rho of the AL's schedule rho0 growth^k (up to rho_max) at which the reduced
     Hessian of the inner problem at (z0, lam0, nu0), M0 + rho J^T J (M0 that of the
@@ -153,11 +176,10 @@ def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
     steps = math.ceil(math.log(options.rho_max / options.rho0) / math.log(options.rho_growth))
     rhos = jnp.minimum(options.rho0 * options.rho_growth ** jnp.arange(steps + 1.0),
                        options.rho_max)
-    la = CondensedSecondOrder(ocp.replace(final_bounds=None,
-                                          penalty=_direction_penalty(nu0, 0.0)), grid, z0)
-    _, _, M0, T = la.hessian(la.prepare(z0, lam0), z0, lam0)
+    M0, Tu = _reduced_hessian(ocp.replace(final_bounds=None,
+                                          penalty=_direction_penalty(nu0, 0.0)), grid, z0, lam0)
     _, U, _ = unpack(z0, ocp, grid)
-    J = 2.0 * jnp.einsum("ia,iak->ik", U, T[la.idx[:, ocp.n_x:]])
+    J = 2.0 * jnp.einsum("ia,iak->ik", U, Tu)
     ones = jnp.ones(M0.shape[0], M0.dtype)
     positive = jax.vmap(
         lambda r: jnp.all(jnp.isfinite(cholesky_solve(M0 + r * J.T @ J, ones))))(rhos)
@@ -206,32 +228,35 @@ augmented Lagrangian's inner KKT systems are dense)."""
 def check_grid(grid, method):
     if method == "condensed":
         return min_time_condensed.check_grid(grid, method)
-    if isinstance(grid, LGRMesh):
-        if grid.segment.n < MIN_POINTS["LGR"]:
-            raise ValueError(f"minimum-time transfers need at least {MIN_POINTS['LGR']} LGR "
-                             f"points per segment, got {grid.segment.n}")
-        return
-    if not isinstance(grid, Grid):
+    if isinstance(grid, Mesh):
+        scheme, n = grid.segment.scheme, grid.segment.n
+    elif isinstance(grid, Grid):
+        scheme, n = grid.scheme, grid.n
+    else:
         raise ValueError(f"grid must be a jaxlpm Grid (lgl(n), lg(n), lgr(n): n points) or "
-                         f"an LGRMesh (lgr_mesh(k, n)), got {grid!r:.60}")
-    if grid.n < MIN_POINTS[grid.scheme]:
-        raise ValueError(f"minimum-time transfers need at least {MIN_POINTS[grid.scheme]} "
-                         f"{grid.scheme} points, got {grid.n}")
+                         f"a Mesh (lgr_mesh(k, n), lg_mesh(k, n), lgl_mesh(k, n)), got "
+                         f"{grid!r:.60}")
+    if n < MIN_POINTS[scheme]:
+        raise ValueError(f"minimum-time transfers need at least {MIN_POINTS[scheme]} "
+                         f"{scheme} points{' per segment' if isinstance(grid, Mesh) else ''}, "
+                         f"got {n}")
 
 
-def refine_transfer(problem, options, judge, ladder: MeshLadder = LADDER):
-    """`solve(problem)` without a grid. Method "condensed" (`CondensedOptions`): its uniform
-    meshes (`min_time_condensed.refine_transfer`). Method "augmented-lagrangian": the
-    `LADDER` of `LGRMesh` shapes, segments split where the estimate is largest
-    (`jaxlpm.solvers.refine`), until the estimate meets the tolerance. Each rung starts from
-    its own minimum-time guess of the linear system (module docstring), which already carries
-    the duration and the primer directions of the transfer: it needs no warm start from the
-    rung before."""
+def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None):
+    """`solve(problem)` without a grid, or `solve(problem, ladder)`. Method "condensed"
+    (`CondensedOptions`): uniform meshes of the ladder's shapes (default
+    `min_time_condensed.LADDER`; `min_time_condensed.refine_transfer`). Method
+    "augmented-lagrangian": the ladder's meshes (default `LADDER`, LGR; LG and LGL
+    ladders too), segments split where the estimate is largest (`jaxlpm.solvers.refine`),
+    until the estimate meets the tolerance. Each rung starts from its own minimum-time guess
+    of the linear system (module docstring), which already carries the duration and the
+    primer directions of the transfer: it needs no warm start from the rung before."""
     if isinstance(options, CondensedOptions):
-        return min_time_condensed.refine_transfer(problem, options, judge)
+        return min_time_condensed.refine_transfer(
+            problem, options, judge, min_time_condensed.LADDER if ladder is None else ladder)
     options = ALOptions() if options is None else options
     return refine(lambda mesh, z0: run(problem, mesh, "augmented-lagrangian", options),
-                  lambda solution, mesh: None, ladder, judge)
+                  lambda solution, mesh: None, LADDER if ladder is None else ladder, judge)
 
 
 def _hcw(problem) -> bool:
@@ -246,9 +271,9 @@ def _hcw(problem) -> bool:
 def run(problem, grid, method, options) -> Solution:
     """Solve a `MinimumTimeTransfer` on `grid`; outputs in SI (LVLH, m, m/s, m/s^2, s).
 
-    Method "augmented-lagrangian" (HCW: model "linear", e = 0), on LGL, LG, LGR or an
-    `LGRMesh`: jit-compiled once per grid size (and options); vmap- and grad-able (implicit
-    differentiation at the KKT point). Traced bad input gives status INVALID_INPUT and zeroed
+    Method "augmented-lagrangian" (HCW: model "linear", e = 0), on LGL, LG, LGR grids or
+    meshes (`LGRMesh`, `LGMesh`, `LGLMesh`): jit-compiled once per grid size (and options);
+    vmap- and grad-able (implicit differentiation at the KKT point). Traced bad input gives status INVALID_INPUT and zeroed
     outputs. INFEASIBLE only where infeasibility is shown: t_max below
     `duration_lower_bound` (then no solve runs: outputs zero, stats["duration_lower_bound"]
     the bound), or the AL's certificate (the violation stalls with the penalty at its cap)
@@ -285,4 +310,5 @@ FAMILY = FamilySolver(
     methods={"augmented-lagrangian": ALOptions, "condensed": CondensedOptions},
     run=run, default_grid=_default_grid, check_grid=check_grid,
     default_method=_default_method, refine=refine_transfer,
-    refine_method=lambda problem: "augmented-lagrangian" if _hcw(problem) else "condensed")
+    refine_method=lambda problem: "augmented-lagrangian" if _hcw(problem) else "condensed",
+    ladders=True)

@@ -1,6 +1,6 @@
 """Minimum-time transfers (`jaxlpm.problems.min_time`) on the linear (Tschauner-Hempel, HCW at
-e = 0), two-body and J2 models: method "condensed", the reachable set of the condensed LGR
-transcription (`jaxlpm.problems.fuel_optimal.condensed_lgr`, `jaxlpm.nlp.reachable`).
+e = 0), two-body and J2 models: method "condensed", the reachable set of the condensed LGR or LG
+transcription (`jaxlpm.problems.fuel_optimal.condensed_mesh`, `jaxlpm.nlp.reachable`).
 
 For a duration T the transcription of the fuel-optimal family (the energy-optimal transfer's
 scaled states and anomaly, a segmented LGR mesh with breaks as fractions of [s0, s_f(T)], the
@@ -15,7 +15,7 @@ thrust, free-direction optimum of Duan & Dong 2011. On the nonlinear models the 
 relinearised about each solution's states until they settle, as for the fuel-optimal family.
 
 Costates: the sensitivity of T* to the state, dT*/dd = p* / (dF*/dT) (F* = 1), carried back
-along the transcription by its discrete adjoint (`CondensedLGR.costates`).
+along the transcription by its discrete adjoint (`CondensedMesh.costates`).
 
 `min_time_shooting(problem)`: the same equation on the exact Yamanaka-Ankersen flow of the
 linear model with Gauss quadrature (no collocation): the shooting cross-check.
@@ -29,7 +29,7 @@ import numpy as np
 
 from .._validation import is_concrete, require_x64
 from ..collocation.segments import (SegmentedMesh, as_segmented, segmented_lgr,
-                                   uniform_breaks)
+                                   segmented_mesh, uniform_breaks)
 from ..compilation import compiled
 from ..nlp.accuracy import unit_direction
 from ..nlp.reachable import primer_directions, support, support_minimiser
@@ -38,7 +38,8 @@ from ..problems.fuel_optimal import FuelOptimalTransfer, collocated_trajectory, 
 from ..problems.min_time import MinimumTimeTransfer
 from ..solution import Solution, zero_invalid
 from ..status import Status
-from .fuel_optimal import collocation_rows, exact_linear_nlp, panel_quadrature
+from .fuel_optimal import check_ladder, exact_linear_nlp, panel_quadrature
+from .refine import MeshLadder
 
 MIN_POINTS = 3
 
@@ -189,7 +190,7 @@ def _solve(problem, mesh, options):
         _, nlp = _condensed(problem, mesh, T, ref)
         U = nlp.umax * primer_directions(nlp.E, p)
         X = nlp.cond.states(nlp.x0, U.reshape(mesh.n_segments, mesh.grid.n, 3))
-        return T, p, dg, ok, collocation_rows(X)
+        return T, p, dg, ok, nlp.cond.collocation_rows(X)
 
     T, p, dg, ok, X = run_at(ref, _start(problem))
     change = jnp.max(jnp.abs(X - ref))
@@ -217,8 +218,7 @@ def _min_time_condensed(problem, mesh, options):
     tr, nlp = _condensed(problem, mesh, T, ref)
     K, n = mesh.n_segments, mesh.grid.n
     U = nlp.umax * primer_directions(nlp.E, p)
-    X = nlp.cond.states(nlp.x0, U.reshape(K, n, 3))
-    rows = jnp.concatenate([X[:, :n].reshape(K * n, 6), X[-1, -1:]])
+    rows = nlp.cond.mesh_rows(nlp.cond.states(nlp.x0, U.reshape(K, n, 3)))
     energy = tr.problem.energy_problem()
     hi = problem.bounds[1]
     reached = jnp.max(jnp.abs(jnp.einsum("iab,ib->a", nlp.E, U / nlp.umax) - nlp.d))
@@ -246,43 +246,46 @@ def _min_time_condensed(problem, mesh, options):
 _compiled = compiled(_min_time_condensed, static_argnames="options")
 
 DEFAULT_SEGMENTS, DEFAULT_POINTS = 16, 8
-REFINE_SEGMENTS = (16, 32, 64, 128)
+LADDER = MeshLadder(tuple((k, DEFAULT_POINTS) for k in (16, 32, 64, 128)))
+"""The uniform meshes `solve(problem)` climbs by method "condensed" (LGR)."""
 
 
 def check_grid(mesh, method):
     mesh = as_segmented(mesh)
     if not isinstance(mesh, SegmentedMesh):
         raise ValueError(f"the grid of method 'condensed' is a SegmentedMesh "
-                         f"(segmented_lgr(breaks, n), breaks as fractions of [s0, s_f]) or a "
-                         f"solution's LGRMesh, got {type(mesh).__name__}")
+                         f"(segmented_lgr(breaks, n) or segmented_lg(breaks, n), breaks as "
+                         f"fractions of [s0, s_f]) or a solution's LGRMesh or LGMesh, got "
+                         f"{type(mesh).__name__}")
     if mesh.grid.n < MIN_POINTS:
-        raise ValueError(f"method 'condensed' needs at least {MIN_POINTS} LGR points per "
-                         f"segment, got {mesh.grid.n}")
+        raise ValueError(f"method 'condensed' needs at least {MIN_POINTS} {mesh.grid.scheme} "
+                         f"points per segment, got {mesh.grid.n}")
 
 
 def run(problem, mesh, method, options: CondensedOptions) -> Solution:
-    """Solve on one segmented LGR mesh (breaks as fractions of [s0, s_f] from 0 to 1, or a
-    solution's `LGRMesh`); outputs in SI (LVLH). jit-compiled once per mesh shape and options;
-    vmap-able. Not differentiated (a parameter's derivative of t_f: finite differences, or
-    the costates for the boundary states). t_min > 0 is not taken (a constant-thrust transfer
-    cannot stretch to a longer time): a ValueError when concrete, INVALID_INPUT when traced.
-    INFEASIBLE where t_max is too short (the target stays outside the reachable set)."""
+    """Solve on one segmented LGR or LG mesh (breaks as fractions of [s0, s_f] from 0 to 1, or
+    a solution's `LGRMesh` or `LGMesh`); outputs in SI (LVLH). jit-compiled once per mesh
+    shape and options; vmap-able. Not differentiated (a parameter's derivative of t_f: finite
+    differences, or the costates for the boundary states). t_min > 0 is not taken (a
+    constant-thrust transfer cannot stretch to a longer time): a ValueError when concrete,
+    INVALID_INPUT when traced. INFEASIBLE where t_max is too short (the target stays outside
+    the reachable set)."""
     if is_concrete(problem.duration_bounds) and np.any(np.asarray(problem.bounds)[..., 0] > 0):
         raise ValueError("method 'condensed' takes duration_bounds [0, t_max] only (a constant-"
                          "thrust transfer cannot be stretched to a longer time)")
     return _compiled(problem, as_segmented(mesh), options)
 
 
-def refine_transfer(problem, options, judge, segments=REFINE_SEGMENTS,
-                    points: int = DEFAULT_POINTS):
-    """`solve(problem)` without a grid: uniform meshes of `segments` LGR segments of `points`
-    points until the estimate meets the tolerance (the constant-thrust direction is smooth:
-    no switches to align with); the last one's solution is INACCURATE otherwise. stats gain
-    mesh_passes."""
+def refine_transfer(problem, options, judge, ladder: MeshLadder = LADDER):
+    """`solve(problem)` without a grid (or `solve(problem, ladder)`): uniform meshes of the
+    ladder's shapes (LGR or LG segments by `ladder.scheme`) until the estimate meets the
+    tolerance (the constant-thrust direction is smooth: no switches to align with); the last
+    one's solution is INACCURATE otherwise. stats gain mesh_passes."""
+    check_ladder(ladder)
     options = CondensedOptions() if options is None else options
-    for done, count in enumerate(segments, start=1):
-        solution = judge(run(problem, segmented_lgr(uniform_breaks(0.0, 1.0, count), points),
-                             "condensed", options))
+    for done, (count, points) in enumerate(ladder.rungs, start=1):
+        mesh = segmented_mesh(uniform_breaks(0.0, 1.0, count), points, ladder.scheme)
+        solution = judge(run(problem, mesh, "condensed", options))
         if int(solution.status) != Status.INACCURATE:
             break
     return solution.replace(stats=dict(solution.stats, mesh_passes=done))

@@ -1,5 +1,5 @@
 """Adaptive hp mesh refinement: solve on a ladder of mesh shapes (`LGRMesh` by default; `LGMesh`
-and `LGLMesh` for the energy-optimal family) until the error estimate meets the tolerance
+and `LGLMesh` too) until the error estimate meets the tolerance
 (Patterson, Hager & Rao 2015; Darby, Hager & Rao 2011).
 
 A `MeshLadder` is a fixed sequence of mesh shapes (segments K, points per segment n) of one
@@ -40,11 +40,12 @@ STOP = (Status.SUCCESS, Status.INVALID_INPUT, Status.SINGULAR)   # a finer mesh 
 class MeshLadder:
     """The mesh shapes of refinement, coarsest first: ((K, n), ...) segments and points per
     segment, on meshes of `scheme` ("LGR": `LGRMesh`, the default; "LG": `LGMesh`; "LGL":
-    `LGLMesh`; the fuel-optimal and minimum-time families refine on LGR only). The default
-    goes from 4 x 16 = 64 points (Mei 2010's N = 64 resolves a near-circular revolution) to
-    32 x 16 = 512 (the Newton-KKT solve's dense Lagrangian Hessian grows with the square of
-    the points: 0.3 GiB at 512). `solve(problem, ladder)` climbs a ladder of one's own
-    (energy-optimal transfers)."""
+    `LGLMesh`; the fuel-optimal family and minimum time by method "condensed" eliminate the
+    states segment by segment, on LGR or LG segments only). The default goes from 4 x 16 =
+    64 points (Mei 2010's N = 64 resolves a near-circular revolution) to 32 x 16 = 512 (the
+    Newton-KKT solve's dense Lagrangian Hessian grows with the square of the points: 0.3 GiB
+    at 512). `solve(problem, ladder)` climbs a ladder of one's own (energy-optimal,
+    fuel-optimal and minimum-time transfers; each family says how it uses the rungs)."""
 
     rungs: tuple = ((4, 16), (8, 16), (16, 16), (32, 16))
     scheme: str = "LGR"
