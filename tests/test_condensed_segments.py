@@ -104,3 +104,53 @@ def test_the_segmented_step_is_the_condensed_and_the_dense_step(member, segments
             assert bool(ok)
             np.testing.assert_allclose(p, p_ref, atol=1e-9 * np.max(np.abs(p_ref)))
             np.testing.assert_allclose(lam_new, lam_ref, atol=1e-9 * np.max(np.abs(lam_ref)))
+
+
+@pytest.mark.parametrize("make_mesh", [lpm.lg_mesh, lpm.lgl_mesh])
+def test_the_condensed_step_on_lg_and_lgl_meshes_is_the_dense_step(member, make_mesh):
+    """`CondensedSecondOrder` on an LG mesh (interior break velocities by the quadrature
+    recursion, each segment's position quadrature row a condition) and an LGL mesh (the
+    linkage rows conditions) solves the dense LU's KKT system, with and without dw, on 3
+    unequal segments of 6 points: the same step and multipliers to 1e-9 of their size (the
+    system's round-off, as above). The condensed basis is formed at z = 0 and used at the warm
+    start: its null space does not depend on z."""
+    mesh = make_mesh(3, 6, np.array([-1.0, -0.4, 0.3, 1.0]))
+    ocp, _, _ = transfer_ocp(member, mesh)
+    z, _ = linear_warm_start(member, ocp, mesh)
+
+    @jax.jit
+    def steps(z):
+        lam = CondensedSecondOrder(ocp, mesh, z).first_multipliers(z)
+        g, c = jax.grad(objective)(z, ocp, mesh), equality(z, ocp, mesh)
+        out = []
+        for la in (DenseKKT(ocp, mesh, z), CondensedSecondOrder(ocp, mesh)):
+            prep = la.prepare(z, lam)
+            H = la.hessian(prep, z, lam)
+            out.append([la.solve(prep, H, g, c, dw, 0.0) for dw in (0.0, 0.5)])
+        return out
+
+    dense, cond = steps(z)
+    for k in range(2):
+        (p_ref, lam_ref, ok_ref), (p, lam_new, ok) = dense[k], cond[k]
+        assert bool(ok_ref) and bool(ok)
+        np.testing.assert_allclose(p, p_ref, atol=1e-9 * np.max(np.abs(p_ref)))
+        np.testing.assert_allclose(lam_new, lam_ref, atol=1e-9 * np.max(np.abs(lam_ref)))
+
+
+@pytest.mark.parametrize("k", [5, 20])
+@pytest.mark.parametrize("lower", [True, False])
+def test_triangular_solve_is_a_substitution(k, lower):
+    """`triangular_solve` (unrolled up to 8 unknowns, a loop beyond) against NumPy's dense
+    solve, for a vector and a matrix right-hand side (round-off of a well-conditioned
+    system), and its derivative in the right-hand side (the solve is linear in b: the VJP of
+    x . c is r^-T c)."""
+    from jaxlpm.linalg import triangular_solve
+    rng = np.random.default_rng(k)
+    r = rng.normal(size=(k, k)) + 2.0 * k * np.eye(k)
+    r = np.tril(r) if lower else np.triu(r)
+    for b in (rng.normal(size=k), rng.normal(size=(k, 3))):
+        np.testing.assert_allclose(triangular_solve(jnp.asarray(r), jnp.asarray(b), lower),
+                                   np.linalg.solve(r, b), rtol=1e-12, atol=1e-14)
+    c = rng.normal(size=k)
+    grad = jax.grad(lambda b: triangular_solve(jnp.asarray(r), b, lower) @ c)(jnp.zeros(k))
+    np.testing.assert_allclose(grad, np.linalg.solve(r.T, c), rtol=1e-12, atol=1e-14)

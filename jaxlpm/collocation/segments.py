@@ -328,13 +328,18 @@ class LGLMesh(Mesh):
     _tail = 0
 
     @property
+    def joins(self):
+        """(rows of X(b_k^-), rows of X(b_k^+)) at the interior breaks, NumPy (K - 1,) each."""
+        seg, m = np.arange(self.n_segments - 1), self.segment.n
+        return seg * m + m - 1, (seg + 1) * m
+
+    @property
     def linkage(self):
-        """L (K - 1, n_rows): row k of L X is X(b_{k+1}^-) - X(b_{k+1}^+)."""
-        k, m = self.n_segments, self.segment.n
-        L = np.zeros((k - 1, self.n_rows))
-        seg = np.arange(k - 1)
-        L[seg, seg * m + m - 1] = 1.0
-        L[seg, (seg + 1) * m] = -1.0
+        """L (K - 1, n_rows): row k of L X is X(b_{k+1}^-) - X(b_{k+1}^+) (`joins`)."""
+        L = np.zeros((self.n_segments - 1, self.n_rows))
+        left, right = self.joins
+        L[np.arange(left.size), left] = 1.0
+        L[np.arange(right.size), right] = -1.0
         return jnp.asarray(L)
 
 

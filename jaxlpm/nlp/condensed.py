@@ -28,6 +28,16 @@ lambda = p_0^T (g + (H + dw I) p), one reverse-mode pass through p_0. At N = 64 
 183 x 183 Cholesky factorisation, whose success is exactly the KKT matrix's correct inertia (a
 positive definite reduced Hessian), instead of the dense 987 x 987 LU.
 
+Meshes (`jaxlpm.collocation.segments`; Garg et al. 2010's multi-interval methods): an
+`LGRMesh` is an LGR grid whose D is block bidiagonal (the same conditions). An `LGMesh`'s
+interior breaks are not collocated: the velocity at b_{k+1} follows from segment k's velocity
+quadrature row with its defects substituted, dV(b_{k+1}) = dV_k(+1) + sum_i W_ki c_v,i -
+quad_v,k (dV_k(+1) segment k's velocity polynomial at its end: sum_i W_ki (D dV)_i =
+dV_k(+1) - dV(b_k) exactly), a recursion from the initial velocity; the conditions left are
+every segment's position quadrature row and the last one's velocity row. An `LGLMesh`
+collocates both copies of a break (one per segment): its conditions are the two end
+velocities and the linkage rows, positions and velocities, at every interior break.
+
 For a given (z, lambda) the step is `DenseKKT`'s; the first multiplier estimate (p_0^T g, not
 least squares) and the second-order correction (p_0, not the least-norm one) differ, so
 iterates differ while converging to the same KKT point.
@@ -37,8 +47,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..collocation.segments import LGLMesh, LGMesh
-from ..linalg import cholesky_solve, complete_qr, small_triangular_solve
+from ..collocation.segments import Mesh
+from ..linalg import cholesky_solve, complete_qr, triangular_solve
 from .transcription import (collocated_rows, differentiate, equality, lagrangian,
                             n_state_rows, n_variables, objective, point_hessians,
                             point_indices, pointwise_jacobian, unpack)
@@ -67,15 +77,14 @@ class CondensedSecondOrder:
     dynamics' Jacobian at each point) and boundary rows x0 - x0*, xf - xf* with no terminal
     cost on the states.
 
-    With a fixed final s on LGL and LGR grids, the null space and the directions' states
-    depend on h, q and b alone (functions of s), not on z: they are formed once, at z_ref (a
-    point where the dynamics are defined; default z = 0), and each Newton iteration only adds
-    the dd/dx terms to the controls' rows of T."""
+    With a fixed final s, the null space and the directions' states depend on h, q and b
+    alone (functions of s), not on z (on LG grids the quadrature rows' dd/dx terms cancel
+    against the velocity defects': h (dd + b dU) = D dV + c_v): they are formed once, at
+    z_ref (a point where the dynamics are defined; default z = 0), and each Newton iteration
+    only adds the dd/dx terms to the controls' rows of T. Single grids and `LGRMesh`, `LGMesh`,
+    `LGLMesh` meshes (module docstring)."""
 
     def __init__(self, ocp, grid, z_ref=None):
-        if isinstance(grid, (LGMesh, LGLMesh)):
-            raise ValueError("the condensed solve takes single grids and LGR meshes; an LG or "
-                             "LGL mesh's quadrature and linkage rows take the dense one")
         self.ocp, self.grid = ocp, grid
         self.n_rows = n_state_rows(grid)
         self.free = bool(ocp.free_final)
@@ -83,7 +92,7 @@ class CondensedSecondOrder:
         self.n_c = jax.eval_shape(lambda: equality(jnp.zeros(n_var), ocp, grid)).shape[0]
         self.idx = point_indices(ocp, grid)              # (n, 9) positions of (x_i, u_i) in z
         self._fixed = None
-        if not self.free and grid.scheme != "LG":
+        if not self.free:
             z_ref = jnp.zeros(n_var) if z_ref is None else z_ref
             self._fixed = self._z_independent(self._coefficients(z_ref), z_ref.dtype)
 
@@ -109,10 +118,41 @@ class CondensedSecondOrder:
         dV_c = (differentiate(g, dR) + c_r) / (h * q[:, None])
         dV = jnp.zeros((self.n_rows, 3), dR.dtype).at[collocated_rows(g)].set(dV_c)
         if g.scheme == "LG":
-            dV = dV.at[0].set(-bc[3:6]).at[-1].set(-bc[9:12])
+            dV = self._break_velocities(dV.at[0].set(-bc[3:6]), r).at[-1].set(-bc[9:12])
         elif g.scheme == "LGR":
             dV = dV.at[-1].set(-bc[9:12])
         return jnp.concatenate([dR, dV], axis=1)
+
+    def _gauss_segments(self):
+        """(K, the break rows (K + 1,), the quadrature weights (K, n_k)) of an LG grid (one
+        segment) or `LGMesh`."""
+        g = self.grid
+        if isinstance(g, Mesh):
+            k = g.n_segments
+            return k, np.arange(k + 1) * (g.segment.n + 1), g.weights.reshape(k, -1)
+        return 1, np.array([0, self.n_rows - 1]), jnp.asarray(g.weights)[None]
+
+    def _break_velocities(self, dV, r):
+        """dV with an `LGMesh`'s interior break velocities from the recursion of the module
+        docstring (the Gauss points' and the first break's already set)."""
+        k, breaks, W = self._gauss_segments()
+        if k == 1:
+            return dV
+        g = self.grid
+        n = g.segment.n
+        end = g.segment.interpolate_state(jnp.eye(n + 1, dtype=dV.dtype), 1.0)   # (n + 1,)
+        c_v = r[:6 * g.n].reshape(k, n, 6)[:, :, 3:]
+        quad_v = r[6 * g.n:6 * g.n + 6 * k].reshape(k, 6)[:, 3:]
+        correction = jnp.einsum("ki,kia->ka", W, c_v) - quad_v
+        gauss = dV[:-1].reshape(k, n + 1, 3)[:, 1:]
+
+        def step(v, seg):
+            v_gauss, corr = seg
+            v_next = end[0] * v + end[1:] @ v_gauss + corr
+            return v_next, v_next
+
+        _, inner = jax.lax.scan(step, dV[0], (gauss[:-1], correction[:-1]))
+        return dV.at[breaks[1:-1]].set(inner)
 
     def _complete(self, dR, r, coef):
         """(dX (rows, 6), dU (n, 3), unmet conditions (k, 3)) for position displacements dR
@@ -130,13 +170,19 @@ class CondensedSecondOrder:
         dU = (differentiate(g, dV) - h * dd + c[:, 3:]) / (h * b[:, None])
         if g.scheme == "LGL":
             unmet = jnp.stack([dV[0] + bc[3:6], dV[-1] + bc[9:12]])
+            if isinstance(g, Mesh) and g.n_segments > 1:    # the linkage rows at the joins
+                left, right = g.joins
+                joins = dX[left] - dX[right] + r[6 * n:6 * n + 6 * left.size].reshape(-1, 6)
+                unmet = jnp.concatenate([unmet, joins[:, :3], joins[:, 3:]])
         elif g.scheme == "LGR":
             unmet = (dV[0] + bc[3:6])[None]
-        else:                                   # the quadrature row, linearised
-            quad = r[6 * n:6 * n + 6]
-            flow = h * (g.weights @ jnp.concatenate([q[:, None] * dV[col],
-                                                     dd + b[:, None] * dU], axis=1))
-            unmet = (dX[-1] - dX[0] - flow + quad).reshape(2, 3)
+        else:          # the quadrature rows, linearised: positions, and the last velocities
+            k, breaks, W = self._gauss_segments()
+            quad = r[6 * n:6 * n + 6 * k].reshape(k, 6)
+            rates = jnp.concatenate([q[:, None] * dV[col], dd + b[:, None] * dU], axis=1)
+            flow = h * jnp.einsum("ki,kia->ka", W, rates.reshape(k, -1, 6))
+            rows = dX[breaks[1:]] - dX[breaks[:-1]] - flow + quad
+            unmet = jnp.concatenate([rows[:, :3], rows[-1:, 3:]])
         return dX, dU, unmet
 
     def _ends(self, r, dtype):
@@ -171,7 +217,7 @@ class CondensedSecondOrder:
         m = self.n_rows - 2
         dR = self._ends(r, dtype)
         e = -self._complete(dR, r, coef)[2].ravel()
-        dR_int = Q1 @ small_triangular_solve(R1.T, e, lower=True) + Z @ w[:Z.shape[1]]
+        dR_int = Q1 @ triangular_solve(R1.T, e, lower=True) + Z @ w[:Z.shape[1]]
         dX, dU, _ = self._complete(dR.at[1:-1].set(dR_int.reshape(m, 3)), r, coef)
         parts = [dX.ravel(), dU.ravel()]
         if self.free:

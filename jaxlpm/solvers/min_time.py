@@ -25,9 +25,7 @@ Thm 17.5: below it the solution is a saddle of the inner problem).
 The inner Newton-KKT systems are solved by `DenseKKT`: for transfers of several orbits the
 condensed elimination (`CondensedSecondOrder`) leaves a stationarity error above the inner
 tolerance (its steps lose digits as the states grow along the orbits), so those solves ended
-at the iteration limit; the guess's QP and the convexity test use the condensed system
-(on LG and LGL meshes, whose quadrature and linkage rows it does not condense, the dense KKT
-system and a null-space basis from the dense Jacobian's QR).
+at the iteration limit; the guess's QP and the convexity test use the condensed system.
 """
 
 import dataclasses
@@ -40,15 +38,14 @@ import numpy as np
 from ..compilation import compiled
 from .._validation import is_concrete
 from ..collocation import Grid, lg
-from ..collocation.segments import LGLMesh, LGMesh, Mesh, SegmentedMesh
-from ..linalg import cholesky_solve, complete_qr
+from ..collocation.segments import Mesh, SegmentedMesh
+from ..linalg import cholesky_solve
 from ..dynamics import hcw_flow
 from ..problems.min_time import (MinimumTimeTransfer, duration_lower_bound, energy_ocp,
                                  min_time_ocp, to_solution)
 from ..nlp.ocp import PathPenalty
 from ..nlp.reachable import support, support_minimiser
-from ..nlp.transcription import (equality, equality_jacobian, lagrangian_hessian, pack,
-                                 point_indices, state_tau, unpack)
+from ..nlp.transcription import equality, pack, state_tau, unpack
 from ..status import Status
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
 from ..nlp.condensed import CondensedSecondOrder
@@ -124,7 +121,7 @@ def initial_guess(ocp, grid, duration_floor):
     eo = energy_ocp(ocp, S, weights)
     zero = pack(jnp.zeros((state_tau(grid).shape[0], ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)),
                 eo.sf, eo)
-    z_qp, lam_qp = newton_step(eo, grid, zero, _linear_algebra(grid))
+    z_qp, lam_qp = newton_step(eo, grid, zero, CondensedSecondOrder)
     X, U, _ = unpack(z_qp, eo, grid)
     norm = jnp.linalg.norm(U, axis=1, keepdims=True)
     U = U / jnp.where(norm > 0.0, norm, 1.0)
@@ -147,26 +144,6 @@ def _direction_penalty(nu, rho, n_bounds=0):
                        jnp.zeros(n_bounds, nu.dtype), rho)
 
 
-def _linear_algebra(grid):
-    """`CondensedSecondOrder` on single grids and `LGRMesh`es, `DenseKKT` on LG and LGL
-    meshes (their quadrature and linkage rows are not condensed)."""
-    return DenseKKT if isinstance(grid, (LGMesh, LGLMesh)) else CondensedSecondOrder
-
-
-def _reduced_hessian(ocp, grid, z, lam):
-    """(Z^T H Z, the controls' rows of Z (n, 3, k)): the Lagrangian Hessian H at (z, lam) on
-    a basis Z of the linearised constraints' null space, `CondensedSecondOrder`'s T where it
-    applies, else the complete QR of the dense Jacobian's transpose."""
-    idx_u = point_indices(ocp, grid)[:, ocp.n_x:]
-    if _linear_algebra(grid) is CondensedSecondOrder:
-        la = CondensedSecondOrder(ocp, grid, z)
-        _, _, M0, T = la.hessian(la.prepare(z, lam), z, lam)
-        return M0, T[idx_u]
-    A = equality_jacobian(z, ocp, grid)
-    Z = complete_qr(A.T)[0][:, A.shape[0]:]
-    return Z.T @ lagrangian_hessian(z, lam, ocp, grid) @ Z, Z[idx_u]
-
-
 def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
     """The first rho of the AL's schedule rho0 growth^k (up to rho_max) at which the reduced
     Hessian of the inner problem at (z0, lam0, nu0), M0 + rho J^T J (M0 that of the
@@ -176,10 +153,11 @@ def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
     steps = math.ceil(math.log(options.rho_max / options.rho0) / math.log(options.rho_growth))
     rhos = jnp.minimum(options.rho0 * options.rho_growth ** jnp.arange(steps + 1.0),
                        options.rho_max)
-    M0, Tu = _reduced_hessian(ocp.replace(final_bounds=None,
-                                          penalty=_direction_penalty(nu0, 0.0)), grid, z0, lam0)
+    la = CondensedSecondOrder(ocp.replace(final_bounds=None,
+                                          penalty=_direction_penalty(nu0, 0.0)), grid, z0)
+    _, _, M0, T = la.hessian(la.prepare(z0, lam0), z0, lam0)
     _, U, _ = unpack(z0, ocp, grid)
-    J = 2.0 * jnp.einsum("ia,iak->ik", U, Tu)
+    J = 2.0 * jnp.einsum("ia,iak->ik", U, T[la.idx[:, ocp.n_x:]])
     ones = jnp.ones(M0.shape[0], M0.dtype)
     positive = jax.vmap(
         lambda r: jnp.all(jnp.isfinite(cholesky_solve(M0 + r * J.T @ J, ones))))(rhos)

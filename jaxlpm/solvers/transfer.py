@@ -17,7 +17,7 @@ from ..problems.energy_optimal import (control_scale, lvlh_state, model_state, t
                                        transfer_ocp)
 from ..nlp.transcription import equality, pack, state_s, state_tau, unpack
 from ..collocation import Grid
-from ..collocation.segments import LGRMesh
+from ..collocation.segments import Mesh
 from ..linalg import sequential_when_batched
 from ..status import Status
 from .lq import kkt_law
@@ -79,18 +79,15 @@ LINEAR_ALGEBRA = ("auto", "condensed", "dense")
 
 def _condenses(problem, grid):
     """Whether `CondensedSecondOrder` can solve the problem's KKT systems: every thrust axis,
-    on a single grid or an `LGRMesh` (LG and LGL meshes take the dense solve: their quadrature
-    and linkage rows are not condensed); every model."""
-    return isinstance(grid, (Grid, LGRMesh)) and all(problem.thrust_axes)
+    on any grid or mesh; every model."""
+    return isinstance(grid, (Grid, Mesh)) and all(problem.thrust_axes)
 
 
 def _condensable(problem, grid):
     """Where the transfer's Newton-KKT may take the condensed solve (`_condenses`); on the
-    linear model a single grid keeps the dense solve (one Newton step of a QP) and an
-    `LGRMesh`, whose dense KKT matrix grows with the square of its points, takes the
-    condensed one."""
-    return _condenses(problem, grid) and (problem.model != "linear"
-                                          or isinstance(grid, LGRMesh))
+    linear model a single grid keeps the dense solve (one Newton step of a QP) and a mesh,
+    whose dense KKT matrix grows with the square of its points, takes the condensed one."""
+    return _condenses(problem, grid) and (problem.model != "linear" or isinstance(grid, Mesh))
 
 
 def _auto_condensed(problem, grid):
