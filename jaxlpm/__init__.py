@@ -10,10 +10,11 @@ jax.config.update("jax_enable_x64", True).
 A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTransfer`,
 `MinimumTimeTransfer`, `FuelOptimalTransfer`, `LQRTransfer`, `ImpulsiveIntercept`,
 `FiniteBurnIntercept`), optional safety constraints on an energy-optimal transfer
-(`KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `ThrustLimit`, `PassiveSafety`), a grid (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`,
-`lg_mesh(k, n)`, `lgl_mesh(k, n)`: k segments; `segmented_lgr`, `segmented_lg`), `solve(problem, grid)` -> `Solution` (without a grid: adaptive
-mesh refinement to the `Tolerance`; a solution that converged but misses it is INACCURATE),
-`verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `design` (mission parameters
+(`KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `ThrustLimit`, `PassiveSafety`), a grid
+(`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`, `lg_mesh(k, n)`, `lgl_mesh(k, n)`:
+k segments; `segmented_lgr`, `segmented_lg`), `solve(problem, grid)` -> `Solution` (without a
+grid: adaptive mesh refinement to the `Tolerance`; a solution that converged but misses it is
+INACCURATE), `verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `design` (mission parameters
 optimised under uncertainty by optax), `io` (save/load, CSV, CCSDS OEM), `lambert`, `Status`,
 `plot` (figures of solutions and studies; matplotlib is imported only when a figure is
 drawn).
@@ -63,6 +64,7 @@ __all__ = [
     "Solution", "SolveError", "SpeedLimit", "Status", "ThrustLimit", "__version__", "aligned_breaks", "batch", "burn_arcs",
     "care", "compilation", "constants", "describe", "design", "hcw_lqr",
     "indirect_fuel_optimal", "io", "lambert", "lg",
-    "lgl", "lgr", "make_grid", "min_time_shooting", "nlp", "plot", "primer", "refine_fuel_optimal", "segmented_lg", "segmented_lgr", "segmented_mesh",
+    "lgl", "lgr", "make_grid", "min_time_shooting", "nlp", "plot", "primer", "refine_fuel_optimal",
+    "segmented_lg", "segmented_lgr", "segmented_mesh",
     "solve", "switching_function", "switching_times", "uniform_breaks", "verify",
 ]

@@ -12,8 +12,8 @@ models of the energy-optimal transfers.
 models (`jaxlpm.problems.energy_optimal`): "linear" (Tschauner-Hempel about a Keplerian chief;
 HCW at e = 0), "two-body", "j2". The transcription is the energy-optimal transfer's
 (`transfer_ocp`) in the same independent variable s (the chief's true anomaly, or the J2
-chief's regularised anomaly), on a segmented LGR or LG mesh (Garg et al. 2010) whose breaks are
-fractions of [s0, s_f] (of the duration on a circular chief).
+chief's regularised anomaly), on a segmented LGR or LG mesh (Garg et al. 2010) whose breaks
+are fractions of [s0, s_f] (of the duration on a circular chief).
 
 eps = 1 is the energy-like problem (J_1 = int |u|^2 / u_max dt, with the thrust bound),
 eps = 0 the fuel (Delta-v) problem, J_0 = int |u| dt. For 0 < eps <= 1 the integrand
@@ -28,8 +28,8 @@ eq. 2 is its first-order form F dt / (Isp g0), larger by a relative Delta v / (2
 
 Condensed transcription (`condensed_mesh`): the dynamics linearised at the collocation points,
 x' = A_i x + B_i u + c_i (exact for the linear model; about a reference trajectory for the
-nonlinear ones, `linearised_nlp`), collocated on each LGR or LG segment and the states eliminated,
-so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i + o. The solver
+nonlinear ones, `linearised_nlp`), collocated on each LGR or LG segment and the states
+eliminated, so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i + o. The solver
 (`jaxlpm.solvers.fuel_optimal`) relinearises the nonlinear models about each solution until
 the state rows stop moving: the fixed point satisfies the nonlinear collocation equations, and
 its KKT conditions are the nonlinear problem's (the linearisation has the same Jacobians there).
@@ -180,8 +180,8 @@ def _segment_maps(A, B, c, grid, h):
     else:
         w = jnp.asarray(grid.weights)
         diagonal = jnp.zeros((n, n, n_x, n_x)).at[jnp.arange(n), jnp.arange(n)].set(A)
-        quadrature = -h * jnp.concatenate(
-            [(w[:, None, None] * A).transpose(1, 0, 2).reshape(n_x, n * n_x), -eye / h], axis=1)
+        quadrature = jnp.concatenate(
+            [-h * (w[:, None, None] * A).transpose(1, 0, 2).reshape(n_x, n * n_x), eye], axis=1)
         M = jnp.concatenate([jnp.concatenate([jnp.kron(Dr, eye) - h * blocks(diagonal),
                                               jnp.zeros((n * n_x, n_x))], axis=1),
                              quadrature])
@@ -319,8 +319,8 @@ class FuelNLP:
 @dataclass(frozen=True)
 class Transcription:
     """The problem on a mesh (built once per solve, not a pytree): the energy-optimal
-    transfer's `OptimalControlProblem` `ocp` on the `LGRMesh` or `LGMesh` `grid` (the same mesh in tau),
-    its chief samples `chief` at the state rows, and the chief integration's flag `ok`."""
+    transfer's `OptimalControlProblem` `ocp` on the `LGRMesh` or `LGMesh` `grid` (the same
+    mesh in tau), its chief samples `chief` at the state rows, and the chief integration's flag `ok`."""
 
     problem: FuelOptimalTransfer
     mesh: SegmentedMesh

@@ -251,8 +251,9 @@ def run(problem, grid, method, options) -> Solution:
 
     Method "augmented-lagrangian" (HCW: model "linear", e = 0), on LGL, LG, LGR grids or
     meshes (`LGRMesh`, `LGMesh`, `LGLMesh`): jit-compiled once per grid size (and options);
-    vmap- and grad-able (implicit differentiation at the KKT point). Traced bad input gives status INVALID_INPUT and zeroed
-    outputs. INFEASIBLE only where infeasibility is shown: t_max below
+    vmap- and grad-able (implicit differentiation at the KKT point). Traced bad input gives
+    status INVALID_INPUT and zeroed outputs. INFEASIBLE only where infeasibility is shown:
+    t_max below
     `duration_lower_bound` (then no solve runs: outputs zero, stats["duration_lower_bound"]
     the bound), or the AL's certificate (the violation stalls with the penalty at its cap)
     with the t_max bound active. Any other such stall ends STALLED. Without duration bounds
