@@ -133,6 +133,8 @@ def test_lgl_segments_are_refused_where_states_are_eliminated():
     refusal: tests/test_meshes.py)."""
     with pytest.raises(ValueError, match="LGL"):
         segmented_mesh(np.linspace(0.0, 1.0, 5), 8, "LGL")
+    with pytest.raises(ValueError, match="LGL segment collocates both its ends"):
+        solve(fuel_problem(), lpm.lgl_mesh(4, 8))
     with pytest.raises(ValueError, match="LGL"):
         solve(fuel_problem(), MeshLadder(((24, 8),), scheme="LGL"))
     with pytest.raises(ValueError, match="LGL"):

@@ -48,7 +48,7 @@ import numpy as np
 from ..compilation import compiled
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
-from ..collocation.segments import (SEGMENTED_SCHEMES, SegmentedMesh, aligned_breaks,
+from ..collocation.segments import (SEGMENTED_SCHEMES, LGLMesh, SegmentedMesh, aligned_breaks,
                                    as_segmented, segmented_lgr, segmented_mesh, uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
 from ..dynamics.chief import kepler_final_anomaly
@@ -172,16 +172,24 @@ _compiled = compiled(_fuel_optimal_transfer, static_argnames="options")
 DEFAULT_SEGMENTS, DEFAULT_POINTS = 24, 8     # Yue & Duan 2016's mesh
 
 
-def check_grid(mesh, method):
+def check_segmented(mesh, what: str) -> SegmentedMesh:
+    """`as_segmented(mesh)` for the condensed families (`what` their name in the message): a
+    ValueError unless it is a `SegmentedMesh` of at least `MIN_POINTS` points a segment."""
     mesh = as_segmented(mesh)
     if not isinstance(mesh, SegmentedMesh):
-        raise ValueError(f"the grid of a fuel-optimal transfer is a SegmentedMesh "
-                         f"(segmented_lgr(breaks, n) or segmented_lg(breaks, n), breaks as "
-                         f"fractions of [s0, s_f]) or a solution's LGRMesh or LGMesh, "
-                         f"got {type(mesh).__name__}")
+        why = (" (an LGL segment collocates both its ends, so its states are not eliminated "
+               "segment by segment)" if isinstance(mesh, LGLMesh) else "")
+        raise ValueError(f"the grid of {what} is a SegmentedMesh (segmented_lgr(breaks, n) or "
+                         f"segmented_lg(breaks, n), breaks as fractions of [s0, s_f]) or a "
+                         f"solution's LGRMesh or LGMesh, got {type(mesh).__name__}{why}")
     if mesh.grid.n < MIN_POINTS:
-        raise ValueError(f"fuel-optimal transfers need at least {MIN_POINTS} "
-                         f"{mesh.grid.scheme} points per segment, got {mesh.grid.n}")
+        raise ValueError(f"the segments of {what} need at least {MIN_POINTS} "
+                         f"{mesh.grid.scheme} points, got {mesh.grid.n}")
+    return mesh
+
+
+def check_grid(mesh, method):
+    mesh = check_segmented(mesh, "a fuel-optimal transfer")
     if is_concrete(mesh.breaks):
         b = np.asarray(mesh.breaks)
         if b.ndim == 1 and not (abs(b[0]) < 1e-15 and abs(b[-1] - 1.0) < 1e-15):

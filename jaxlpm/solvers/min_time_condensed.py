@@ -28,8 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import is_concrete, require_x64
-from ..collocation.segments import (SegmentedMesh, as_segmented, segmented_lgr,
-                                   segmented_mesh, uniform_breaks)
+from ..collocation.segments import as_segmented, segmented_lgr, segmented_mesh, uniform_breaks
 from ..compilation import compiled
 from ..nlp.accuracy import unit_direction
 from ..nlp.reachable import primer_directions, support, support_minimiser
@@ -38,10 +37,8 @@ from ..problems.fuel_optimal import FuelOptimalTransfer, collocated_trajectory, 
 from ..problems.min_time import MinimumTimeTransfer
 from ..solution import Solution, zero_invalid
 from ..status import Status
-from .fuel_optimal import check_ladder, exact_linear_nlp, panel_quadrature
+from .fuel_optimal import check_ladder, check_segmented, exact_linear_nlp, panel_quadrature
 from .refine import MeshLadder
-
-MIN_POINTS = 3
 
 
 @dataclass(frozen=True)
@@ -251,15 +248,7 @@ LADDER = MeshLadder(tuple((k, DEFAULT_POINTS) for k in (16, 32, 64, 128)))
 
 
 def check_grid(mesh, method):
-    mesh = as_segmented(mesh)
-    if not isinstance(mesh, SegmentedMesh):
-        raise ValueError(f"the grid of method 'condensed' is a SegmentedMesh "
-                         f"(segmented_lgr(breaks, n) or segmented_lg(breaks, n), breaks as "
-                         f"fractions of [s0, s_f]) or a solution's LGRMesh or LGMesh, got "
-                         f"{type(mesh).__name__}")
-    if mesh.grid.n < MIN_POINTS:
-        raise ValueError(f"method 'condensed' needs at least {MIN_POINTS} {mesh.grid.scheme} "
-                         f"points per segment, got {mesh.grid.n}")
+    check_segmented(mesh, "method 'condensed'")
 
 
 def run(problem, mesh, method, options: CondensedOptions) -> Solution:
