@@ -215,12 +215,31 @@ def final_anomaly(problem: EnergyOptimalTransfer):
     return kepler_final_anomaly(o, problem.duration), jnp.array(True)
 
 
-def chief_at(problem: EnergyOptimalTransfer, s_f, tau):
-    """(ChiefSamples at tau in [-1, 1] of [f0, s_f], ok)."""
+def chief_at(problem: EnergyOptimalTransfer, s_f, *taus):
+    """([ChiefSamples at each tau, arrays in [-1, 1] of [f0, s_f]], ok): analytic on the
+    Keplerian models; on "j2" one integration saves at all of them, sorted together (its
+    adaptive steps do not depend on the save times, so each set's samples are those an
+    integration of its own would give)."""
     o = problem.orbit
-    if problem.model == "j2":
-        return j2_chief(o, s_f, 0.5 * (tau + 1.0), problem.j2, problem.r_eq)
-    return kepler_chief(o, o.f0 + 0.5 * (s_f - o.f0) * (tau + 1.0)), jnp.array(True)
+    if problem.model != "j2":
+        return ([kepler_chief(o, o.f0 + 0.5 * (s_f - o.f0) * (tau + 1.0)) for tau in taus],
+                jnp.array(True))
+    every = jnp.concatenate(taus)
+    order = jnp.argsort(every)
+    samples, ok = j2_chief(o, s_f, 0.5 * (every[order] + 1.0), problem.j2, problem.r_eq)
+    samples = jax.tree_util.tree_map(lambda x: x[jnp.argsort(order)], samples)
+    ends = np.cumsum([tau.shape[0] for tau in taus])
+    return [jax.tree_util.tree_map(lambda x: x[a:b], samples)
+            for a, b in zip([0, *ends[:-1]], ends)], ok
+
+
+def transfer_chief(problem: EnergyOptimalTransfer, grid):
+    """(s_f, (chief at the grid's state rows, ok), (chief at its check mesh's state rows,
+    ok)): the final anomaly and the chief for `transfer_ocp` and `collocation_accuracy`, the
+    two sample sets by one integration on the J2 model (`chief_at`)."""
+    s_f, ok_f = final_anomaly(problem)
+    (rows, check), ok = chief_at(problem, s_f, state_tau(grid), state_tau(check_mesh(grid)))
+    return s_f, (rows, ok & ok_f), (check, ok & ok_f)
 
 
 def model_state(problem: EnergyOptimalTransfer, x_lvlh, s):
@@ -262,14 +281,18 @@ def cost_scale(problem: EnergyOptimalTransfer):
     return L**2 * (o.k2**3 if problem.model == "linear" else o.mean_motion**3)
 
 
-def transfer_ocp(problem: EnergyOptimalTransfer, grid, s_f=None):
+def transfer_ocp(problem: EnergyOptimalTransfer, grid, s_f=None, chief=None):
     """The transfer as an `OptimalControlProblem` on `grid`, with the chief sampled at the
     state rows (`ChiefSamples`, for times and the LVLH map) and an integration flag ok.
     s_f: the final anomaly where the caller has it (`final_anomaly`: a J2 chief integration
-    less in the program), None: computed here."""
+    less in the program), None: computed here; chief: (the samples at the grid's state
+    rows, ok) where the caller has them (`transfer_chief`), None: integrated here."""
     o = problem.orbit
     s_f, ok_f = final_anomaly(problem) if s_f is None else (s_f, jnp.array(True))
-    chief, ok_c = chief_at(problem, s_f, state_tau(grid))
+    if chief is None:
+        (chief,), ok_c = chief_at(problem, s_f, state_tau(grid))
+    else:
+        chief, ok_c = chief
     x0 = model_state(problem, problem.x0, o.f0)
     xf = model_state(problem, problem.xf, s_f)
     axes = jnp.asarray(problem.thrust_axes, x0.dtype)
@@ -344,17 +367,19 @@ def scaled_rows(solution):
 
 
 def collocation_accuracy(problem: EnergyOptimalTransfer, grid, X, U, control_map=None,
-                         s_f=None):
+                         s_f=None, chief=None):
     """`jaxlpm.solution.accuracy` stats (SI, LVLH) of the solution with scaled state rows X
     and controls U on `grid` (the units of `transfer_ocp`): the GPOPS-II estimate on the
     check mesh, whose chief is sampled at the check points, the errors mapped to LVLH
     (`lvlh_state` is linear in the state at a given anomaly). control_map: applied to the
     interpolated control before it is flown (a constant-magnitude engine's direction). s_f:
-    the final anomaly where the caller has it (`transfer_ocp`)."""
+    the final anomaly, chief: the chief at the check mesh's rows with its flag, where the
+    caller has them (`transfer_ocp`, `transfer_chief`)."""
     check = check_mesh(grid)
     # the defects and the flight need the model alone: the constraints are checked in SI by
     # `safety_stats`, with their own (denser) drift samples
-    ocp_check, chief_check, _ = transfer_ocp(problem.replace(constraints=()), check, s_f)
+    ocp_check, chief_check, _ = transfer_ocp(problem.replace(constraints=()), check, s_f,
+                                             chief)
     d = collocation_defects(ocp_check, check, grid, X, U, control_map=control_map)
     # the linear model's flight by its transition matrix on a fixed grid without path
     # constraints (the LQ laws', Newton's: smooth controls); meshes and constrained solutions
@@ -444,13 +469,15 @@ def safety_stats(problem: EnergyOptimalTransfer, grid, X, U, tau, s, t):
 
 
 def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status, valid,
-                method="newton", extra=None, cost_unit=None):
+                method="newton", extra=None, cost_unit=None, check_chief=None):
     """The `Solution` (SI, LVLH) of the transcribed transfer solved to `result` (an
     `NLPResult` of `transfer_ocp(problem, grid)`, whose chief samples are `chief`): states
     and controls unscaled, the cost 1/2 int |u|^2 dt, costates dJ/dx = cost_unit
     (dx~/dx)^T dJ~/dx~ (x~ = `model_state`(x)), zeros where `valid` is False. cost_unit: the
     SI cost per unit of the solver's objective (default `cost_scale`; another running cost,
     such as the smoothed delta-v of `jaxlpm.solvers.fuel_constrained`, gives its own).
+    check_chief: the chief at the check mesh's rows and its flag (`transfer_chief`), or None
+    (integrated for the estimate).
 
     stats: node_s, state_s (anomalies of the collocation points and state rows, rad),
     cost_true_anomaly (k^2 cost, m^2/s^4), costates_scaled (dJ~/dx~), multipliers,
@@ -485,6 +512,7 @@ def to_solution(problem: EnergyOptimalTransfer, ocp, grid, chief, result, status
                    constraint_residual=keep(result.constraint_residual),
                    stationarity_residual=keep(result.stationarity_residual),
                    iterations=result.iterations, history=keep(result.history),
-                   **collocation_accuracy(problem, grid, X, U, s_f=ocp.sf),
+                   **collocation_accuracy(problem, grid, X, U, s_f=ocp.sf,
+                                          chief=check_chief),
                    **(extra or {})),
         method=method)

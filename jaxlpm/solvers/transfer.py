@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 
 from ..problems.energy_optimal import (control_scale, lvlh_state, model_state, to_solution,
-                                       transfer_ocp)
+                                       transfer_chief, transfer_ocp)
 from ..nlp.transcription import equality, pack, state_s, state_tau, unpack
 from ..collocation import Grid
 from ..collocation.segments import Mesh
@@ -127,7 +127,8 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
                          f"constraints, got {type(options).__name__}")
     valid = problem.validity()
     problem = problem.sanitized(valid)
-    ocp, chief, ok = transfer_ocp(problem, grid)
+    s_f, rows_chief, check_chief = transfer_chief(problem, grid)
+    ocp, chief, ok = transfer_ocp(problem, grid, s_f, rows_chief)
     if z0 is not None:
         z0, linear_singular = jax.lax.stop_gradient(z0), jnp.array(False)
     elif warm_start:       # an initial guess: not differentiated, member by member under vmap
@@ -169,4 +170,5 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
     status = jnp.where(valid, jnp.where(ok, status, Status.NONFINITE),
                        Status.INVALID_INPUT).astype(jnp.int32)
     return to_solution(problem, ocp, grid, chief, result, status, valid,
-                       method="augmented-lagrangian" if constrained else "newton", extra=extra)
+                       method="augmented-lagrangian" if constrained else "newton", extra=extra,
+                       check_chief=check_chief)
