@@ -217,9 +217,9 @@ def final_anomaly(problem: EnergyOptimalTransfer):
 
 def chief_at(problem: EnergyOptimalTransfer, s_f, *taus):
     """([ChiefSamples at each tau, arrays in [-1, 1] of [f0, s_f]], ok): analytic on the
-    Keplerian models; on "j2" one integration saves at all of them, sorted together (its
-    adaptive steps do not depend on the save times, so each set's samples are those an
-    integration of its own would give)."""
+    Keplerian models; on "j2" one integration saves at all of them, sorted together (the
+    saved states are interpolated within the adaptive steps: each set's samples equal those
+    of an integration of its own to the integrator's round-off)."""
     o = problem.orbit
     if problem.model != "j2":
         return ([kepler_chief(o, o.f0 + 0.5 * (s_f - o.f0) * (tau + 1.0)) for tau in taus],
