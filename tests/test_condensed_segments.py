@@ -67,21 +67,15 @@ def member():
                                   batch)
 
 
-@pytest.mark.parametrize("segments, points", [(5, 6)])
-def test_the_segmented_step_is_the_condensed_and_the_dense_step(member, segments, points):
+def assert_same_kkt_steps(member, mesh, condensed):
     """At the warm start, with the first multipliers of the dense condensed solve (so the
-    point Hessians hold the two-body dynamics' second derivatives), the three linear algebras
-    solve the same KKT system, with and without regularisation dw; the null-space step of a
-    positive definite reduced Hessian does not depend on the basis, so steps and multipliers
-    agree to the system's round-off. The dense LU and the dense condensed solve agree with
-    each other to about 1e-11 of the step here, so 1e-9 is asserted. 5 segments (odd)
-    exercise the band's identity block; the refinement tests run even counts
-    (tests/test_meshes.py checks whole refined solves on LGR meshes, which take this solve
-    from 4 segments, against the dense LG and LGL ones)."""
-    mesh = lpm.lgr_mesh(segments, points)
+    point Hessians hold the two-body dynamics' second derivatives), `DenseKKT` and each
+    linear algebra of `condensed` (ocp, z -> instance) solve the same KKT system, with and
+    without regularisation dw: the null-space step of a positive definite reduced Hessian
+    does not depend on the basis, so steps and multipliers agree to the system's round-off
+    (the dense LU and the dense condensed solve agree to about 1e-11 of the step: 1e-9 is
+    asserted)."""
     ocp, _, _ = transfer_ocp(member, mesh)
-    assert segments_apply(ocp, mesh)
-    assert isinstance(condensed_linear_algebra(ocp, mesh), SegmentedCondensed)
     z, _ = linear_warm_start(member, ocp, mesh)
 
     @jax.jit
@@ -89,52 +83,45 @@ def test_the_segmented_step_is_the_condensed_and_the_dense_step(member, segments
         lam = CondensedSecondOrder(ocp, mesh, z).first_multipliers(z)
         g, c = jax.grad(objective)(z, ocp, mesh), equality(z, ocp, mesh)
         out = []
-        for cls in (DenseKKT, CondensedSecondOrder, SegmentedCondensed):
-            la = cls(ocp, mesh, z)
+        for la in (DenseKKT(ocp, mesh, z), *(make(ocp, z) for make in condensed)):
             prep = la.prepare(z, lam)
             H = la.hessian(prep, z, lam)
             out.append([la.solve(prep, H, g, c, dw, 0.0) for dw in (0.0, 0.5)])
         return out
 
-    (dense, cond, seg) = steps(z)
+    dense, *others = steps(z)
     for k in range(2):
         p_ref, lam_ref, ok = dense[k]
         assert bool(ok)
-        for p, lam_new, ok in (cond[k], seg[k]):
+        for p, lam_new, ok in (other[k] for other in others):
             assert bool(ok)
             np.testing.assert_allclose(p, p_ref, atol=1e-9 * np.max(np.abs(p_ref)))
             np.testing.assert_allclose(lam_new, lam_ref, atol=1e-9 * np.max(np.abs(lam_ref)))
+
+
+@pytest.mark.parametrize("segments, points", [(5, 6)])
+def test_the_segmented_step_is_the_condensed_and_the_dense_step(member, segments, points):
+    """The three linear algebras give the same step (`assert_same_kkt_steps`). 5 segments
+    (odd) exercise the band's identity block; the refinement tests run even counts
+    (tests/test_meshes.py checks whole refined solves on LGR meshes, which take this solve
+    from 4 segments, against the LG and LGL ones)."""
+    mesh = lpm.lgr_mesh(segments, points)
+    ocp, _, _ = transfer_ocp(member, mesh)
+    assert segments_apply(ocp, mesh)
+    assert isinstance(condensed_linear_algebra(ocp, mesh), SegmentedCondensed)
+    assert_same_kkt_steps(member, mesh, [lambda ocp, z: CondensedSecondOrder(ocp, mesh, z),
+                                         lambda ocp, z: SegmentedCondensed(ocp, mesh, z)])
 
 
 @pytest.mark.parametrize("make_mesh", [lpm.lg_mesh, lpm.lgl_mesh])
 def test_the_condensed_step_on_lg_and_lgl_meshes_is_the_dense_step(member, make_mesh):
     """`CondensedSecondOrder` on an LG mesh (interior break velocities by the quadrature
     recursion, each segment's position quadrature row a condition) and an LGL mesh (the
-    linkage rows conditions) solves the dense LU's KKT system, with and without dw, on 3
-    unequal segments of 6 points: the same step and multipliers to 1e-9 of their size (the
-    system's round-off, as above). The condensed basis is formed at z = 0 and used at the warm
-    start: its null space does not depend on z."""
+    linkage rows conditions) gives the dense LU's step and multipliers
+    (`assert_same_kkt_steps`) on 3 unequal segments of 6 points. The condensed basis is
+    formed at z = 0 and used at the warm start: its null space does not depend on z."""
     mesh = make_mesh(3, 6, np.array([-1.0, -0.4, 0.3, 1.0]))
-    ocp, _, _ = transfer_ocp(member, mesh)
-    z, _ = linear_warm_start(member, ocp, mesh)
-
-    @jax.jit
-    def steps(z):
-        lam = CondensedSecondOrder(ocp, mesh, z).first_multipliers(z)
-        g, c = jax.grad(objective)(z, ocp, mesh), equality(z, ocp, mesh)
-        out = []
-        for la in (DenseKKT(ocp, mesh, z), CondensedSecondOrder(ocp, mesh)):
-            prep = la.prepare(z, lam)
-            H = la.hessian(prep, z, lam)
-            out.append([la.solve(prep, H, g, c, dw, 0.0) for dw in (0.0, 0.5)])
-        return out
-
-    dense, cond = steps(z)
-    for k in range(2):
-        (p_ref, lam_ref, ok_ref), (p, lam_new, ok) = dense[k], cond[k]
-        assert bool(ok_ref) and bool(ok)
-        np.testing.assert_allclose(p, p_ref, atol=1e-9 * np.max(np.abs(p_ref)))
-        np.testing.assert_allclose(lam_new, lam_ref, atol=1e-9 * np.max(np.abs(lam_ref)))
+    assert_same_kkt_steps(member, mesh, [lambda ocp, z: CondensedSecondOrder(ocp, mesh)])
 
 
 @pytest.mark.parametrize("k", [5, 20])
