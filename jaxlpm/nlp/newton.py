@@ -268,11 +268,13 @@ def newton_iterations(w0, ocp, grid, options: NewtonOptions, linear_algebra=Dens
         return s.step, s.multipliers, s.dw, s.ok
 
     def line_search(z, lam, g, c, kkt, prep, p, mu):
-        """(step, alpha, accepted): the full step if the merit accepts it, else its
-        second-order correction (Nocedal & Wright Alg. 18.3 / §15.5: p_soc = p + d with
-        A d = -c(z + p) removes the constraints' curvature that makes the merit reject good
-        Newton steps near a solution, the Maratos effect), also taken when it halves the KKT
-        residual, else Armijo backtracking along p."""
+        """(step, alpha, accepted): the full step if the merit accepts it or it halves the
+        KKT residual (a condensed step meets its linearised constraints only to ~1e-12, so near
+        a solution the merit's l1 term can reject it while it brings the stationarity down
+        by three decades), else its second-order correction (Nocedal & Wright Alg. 18.3 /
+        §15.5: p_soc = p + d with A d = -c(z + p) removes the constraints' curvature that makes
+        the merit reject good Newton steps near a solution, the Maratos effect), also taken
+        when it halves the KKT residual, else Armijo backtracking along p."""
         phi0 = merit(z, mu)
         slope = g @ p - mu * jnp.sum(jnp.abs(c))
 
@@ -282,11 +284,14 @@ def newton_iterations(w0, ocp, grid, options: NewtonOptions, linear_algebra=Dens
         phi_full = merit(z + p, mu)
         full = sufficient(phi_full, 1.0)
 
+        def kkt_after(step):
+            return jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + step, lam]), ocp, grid)))
+
         def corrected(_):
+            halves = kkt_after(p) <= 0.5 * kkt
             p_soc = p + la.correction(prep, c_fun(z + p))
-            kkt_soc = jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + p_soc, lam]), ocp,
-                                                   grid)))
-            return p_soc, sufficient(merit(z + p_soc, mu), 1.0) | (kkt_soc <= 0.5 * kkt)
+            soc = sufficient(merit(z + p_soc, mu), 1.0) | (kkt_after(p_soc) <= 0.5 * kkt)
+            return jnp.where(halves, p, p_soc), halves | soc
 
         p_soc, use_soc = jax.lax.cond(full, lambda _: (p, jnp.array(False)), corrected, None)
 

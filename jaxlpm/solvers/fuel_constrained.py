@@ -25,6 +25,10 @@ linear model's warm start instead, the eps = 1 problem ended INFEASIBLE on the J
 `jaxlpm.cases.approach` (the penalty at its cap with the abort-safety drift still inside the
 sphere), though the energy-optimal solution is feasible there.
 
+Every Newton-KKT system is solved by the condensed step where the transfer allows it (every
+thrust axis: `jaxlpm.nlp.condensed_segments.condensed_linear_algebra`, the path terms' Hessian
+being block diagonal over the points like the dynamics'), else by the dense LU.
+
 The reported delta-v is that of the solution's own control, int |u| dt by the mesh's
 quadrature, not the smoothed cost; l_eps(w) >= (1 - eps) w, so the smoothed optimum's delta-v
 exceeds the fuel optimum of the same mesh by at most a fraction eps / (1 - eps) plus the
@@ -41,10 +45,11 @@ import jax.numpy as jnp
 from ..compilation import compiled
 from ..collocation.segments import SegmentedMesh, tau_mesh
 from ..implicit import root
+from ..nlp.condensed_segments import condensed_linear_algebra
 from ..nlp.augmented_lagrangian import (ALOptions, al_kkt_residual, augmented_lagrangian,
                                         stack_kkt_point)
 from ..nlp.homotopy import smoothed_cost
-from ..nlp.newton import NewtonOptions, NLPResult
+from ..nlp.newton import DenseKKT, NewtonOptions, NLPResult
 from ..nlp.ocp import PathPenalty
 from ..nlp.transcription import objective, unpack
 from ..problems import safety
@@ -54,7 +59,7 @@ from ..problems.fuel_optimal import FuelOptimalTransfer, delta_v_unit, rocket_fu
 from ..problems.scaling import safe_norm
 from ..status import Status
 from .energy_optimal import rung_options
-from .transfer import linear_warm_start
+from .transfer import condensable, linear_warm_start
 
 
 BURN_THRESHOLD = 10.0    # a point fires where its throttle exceeds this x delta: a coast point
@@ -173,7 +178,8 @@ def _at_kkt_point(w, ocp, grid):
     return w
 
 
-def _continuation(ocp, grid, energy, options: FuelALOptions, al: ALOptions, unit):
+def _continuation(ocp, grid, energy, options: FuelALOptions, al: ALOptions, unit,
+                  linear_algebra):
     """The augmented Lagrangian at every eps of the schedule, warm-started in turn from the
     energy-optimal solution `energy` (an `ALResult` of the same transcription, its
     multipliers scaled by `energy_to_fuel_scale`): the final `ALResult`, and per eps its
@@ -185,7 +191,8 @@ def _continuation(ocp, grid, energy, options: FuelALOptions, al: ALOptions, unit
 
     def step(carry, eps):
         z, lam, pen = carry
-        res = augmented_lagrangian(_at(ocp, eps, options), grid, z, lam, al, penalty0=pen)
+        res = augmented_lagrangian(_at(ocp, eps, options), grid, z, lam, al,
+                                   linear_algebra=linear_algebra, penalty0=pen)
         out = (res.status, delta_v(res.z, ocp, grid, unit), res.outer_iterations,
                res.inner_iterations)
         return (res.z, res.multipliers, res.path_multipliers), (res, out)
@@ -209,9 +216,10 @@ def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
     fixed = jax.lax.stop_gradient((energy, ocp, energy_ocp))
     z0, _ = linear_warm_start(fixed[0].replace(constraints=()), fixed[2], grid)
     al = rung_options(options.al, mesh.n_segments)
-    first = augmented_lagrangian(fixed[2], grid, z0, options=al)
+    la = condensed_linear_algebra if condensable(energy, grid) else DenseKKT
+    first = augmented_lagrangian(fixed[2], grid, z0, options=al, linear_algebra=la)
     res, (statuses, dvs, outer, inner) = jax.lax.stop_gradient(
-        _continuation(fixed[1], grid, first, options, al, unit))
+        _continuation(fixed[1], grid, first, options, al, unit, la))
     final = _at(ocp, options.eps[-1], options)
     w = _at_kkt_point(stack_kkt_point(res), final, grid)
     z, lam = unpack_kkt(w, res)

@@ -83,20 +83,11 @@ def _condenses(problem, grid):
     return isinstance(grid, (Grid, Mesh)) and all(problem.thrust_axes)
 
 
-def _condensable(problem, grid):
+def condensable(problem, grid):
     """Where the transfer's Newton-KKT may take the condensed solve (`_condenses`); on the
     linear model a single grid keeps the dense solve (one Newton step of a QP) and a mesh,
     whose dense KKT matrix grows with the square of its points, takes the condensed one."""
     return _condenses(problem, grid) and (problem.model != "linear" or isinstance(grid, Mesh))
-
-
-def _auto_condensed(problem, grid):
-    """What "auto" picks: the condensed solve where it applies, except with safety
-    constraints: inside the augmented Lagrangian its steps lost the inner problems'
-    stationarity on meshes of 16 segments and more (thrust limit, 16 x 16 points: 0.01 left
-    after 30 outer iterations, where the dense solve converges in 4; as for the minimum-time
-    family, `jaxlpm.solvers.min_time`)."""
-    return _condensable(problem, grid) and not problem.constraints
 
 
 def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOptions(),
@@ -111,7 +102,8 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
     whole KKT matrix), "condensed" (`CondensedSecondOrder`: the same step from a 3 (N - 3)-unknown
     null-space system; nonlinear models with every thrust axis; on an `LGRMesh` of 4 segments
     or more `SegmentedCondensed`, its reduced Hessian block-banded) or "auto"
-    (default: "condensed" where it applies, else "dense"; "dense" with safety constraints).
+    (default: "condensed" where it applies, else "dense"; with safety constraints too: the
+    line search takes a step that halves the KKT residual, `jaxlpm.nlp.newton`).
     warm_start=False starts from zero states and controls (the linear model then converges
     in one Newton step: it is a QP). On the nonlinear models a failed solve is retried by
     continuation in the separation (`separation_homotopy`, from 1/64 of it to all of it);
@@ -142,13 +134,12 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
     if linear_algebra not in LINEAR_ALGEBRA:
         raise ValueError(f"linear_algebra must be one of {LINEAR_ALGEBRA}, got "
                          f"{linear_algebra!r}")
-    condensable = _condensable(problem, grid)
-    if linear_algebra == "condensed" and not condensable:
+    can_condense = condensable(problem, grid)
+    if linear_algebra == "condensed" and not can_condense:
         raise ValueError("linear_algebra='condensed' needs a nonlinear model ('two-body', "
                          "'j2') and every thrust axis; use 'dense' or 'auto'")
-    auto = _auto_condensed(problem, grid)
     la = (condensed_linear_algebra if linear_algebra == "condensed"
-          or (linear_algebra == "auto" and auto) else DenseKKT)
+          or (linear_algebra == "auto" and can_condense) else DenseKKT)
     extra = None
     if constrained:
         al = augmented_lagrangian(ocp, grid, z0, options=options, linear_algebra=la)
