@@ -22,10 +22,13 @@ rho of the AL's schedule rho0 growth^k at which the inner problem's reduced Hess
 guess is positive definite (the AL is exact only above such a threshold; Nocedal & Wright 2006,
 Thm 17.5: below it the solution is a saddle of the inner problem).
 
-The inner Newton-KKT systems are solved by `DenseKKT`: for transfers of several orbits the
-condensed elimination (`CondensedSecondOrder`) leaves a stationarity error above the inner
-tolerance (its steps lose digits as the states grow along the orbits), so those solves ended
-at the iteration limit; the guess's QP and the convexity test use the condensed system.
+The inner Newton-KKT systems, the guess's QP and the convexity test are solved by the condensed
+elimination (`CondensedSecondOrder`). Its steps meet the linearised defects only to ~1e-12 on
+transfers of several orbits (they lose digits as the states grow along the orbits), which the
+l1 merit used to reject near a solution, ending the inner solves at the iteration limit; the
+line search now also takes a full step that halves the KKT residual (`jaxlpm.nlp.newton`), and
+duan's case takes the same 2 Newton iterations as with the dense LU, 0.025 s instead of
+0.186 s (BENCHMARKS.md).
 """
 
 import dataclasses
@@ -49,7 +52,7 @@ from ..nlp.transcription import equality, pack, state_tau, unpack
 from ..status import Status
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
 from ..nlp.condensed import CondensedSecondOrder
-from ..nlp.newton import DenseKKT, newton_step
+from ..nlp.newton import newton_step
 from ..solution import Solution
 from . import min_time_condensed
 from .family import FamilySolver
@@ -181,7 +184,7 @@ def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
     fixed = fixed.replace(sf=z0[-1])
     rho0 = _first_convex_penalty(fixed, grid, z0, lam0, nu0, options)
     result = augmented_lagrangian(ocp.replace(sf=z0[-1]), grid, z0, lam0, options=options,
-                                  linear_algebra=DenseKKT,
+                                  linear_algebra=CondensedSecondOrder,
                                   penalty0=_direction_penalty(nu0, rho0, n_bounds=2))
     # infeasibility is shown by the lower bound, or by the AL's certificate with the duration
     # held at t_max (`run`)
