@@ -235,8 +235,10 @@ def _ladder(segments, points=DEFAULT_POINTS, scheme="LGR"):
 
 LADDER = _ladder((DEFAULT_SEGMENTS, 48, 96))
 """The segment counts `solve(problem)` refines over (LGR, `DEFAULT_POINTS` a segment)."""
-# with safety constraints the states are kept and every Newton-KKT step factors a dense KKT
-# matrix (~1900 unknowns at 16 x 8 points: 0.1-0.2 s), so refinement stays on fewer segments
+# with safety constraints the states are kept; this ladder was sized when every Newton-KKT step
+# factored the dense KKT matrix (~1900 unknowns at 16 x 8 points: 0.1-0.2 s). The condensed
+# step makes finer rungs affordable; not yet evaluated as a default (on the approach case the
+# finer meshes did not converge, docs/approach.md)
 CONSTRAINED_LADDER = _ladder((16, 24))
 
 
