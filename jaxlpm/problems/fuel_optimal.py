@@ -29,10 +29,11 @@ eq. 2 is its first-order form F dt / (Isp g0), larger by a relative Delta v / (2
 Condensed transcription (`condensed_mesh`): the dynamics linearised at the collocation points,
 x' = A_i x + B_i u + c_i (exact for the linear model; about a reference trajectory for the
 nonlinear ones, `linearised_nlp`), collocated on each LGR or LG segment and the states
-eliminated, so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i + o. The solver
-(`jaxlpm.solvers.fuel_optimal`) relinearises the nonlinear models about each solution until
-the state rows stop moving: the fixed point satisfies the nonlinear collocation equations, and
-its KKT conditions are the nonlinear problem's (the linearisation has the same Jacobians there).
+eliminated, so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i + o.
+The solver (`jaxlpm.solvers.fuel_optimal`) relinearises the nonlinear models about each
+solution until the state rows stop moving: the fixed point satisfies the nonlinear collocation
+equations, and its KKT conditions are the nonlinear problem's (the linearisation has the same
+Jacobians there).
 """
 
 from dataclasses import dataclass, field, replace
@@ -320,7 +321,8 @@ class FuelNLP:
 class Transcription:
     """The problem on a mesh (built once per solve, not a pytree): the energy-optimal
     transfer's `OptimalControlProblem` `ocp` on the `LGRMesh` or `LGMesh` `grid` (the same
-    mesh in tau), its chief samples `chief` at the state rows, and the chief integration's flag `ok`."""
+    mesh in tau), its chief samples `chief` at the state rows, and the chief integration's
+    flag `ok`."""
 
     problem: FuelOptimalTransfer
     mesh: SegmentedMesh

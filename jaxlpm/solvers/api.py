@@ -40,9 +40,9 @@ def solve(problem, grid=None, *, method=None, options=None, tolerance=None,
     on the family's ladder); for energy-optimal, fuel-optimal and minimum-time transfers a
     `MeshLadder`: refinement on that ladder (`MeshLadder(rungs, scheme="LG")`: on LG meshes;
     the fuel-optimal family and method "condensed" on LGR or LG segments). method: None for
-    the family's default (minimum time: "condensed" on a `SegmentedMesh`). options: the method's frozen options
-    object (`NewtonOptions`, `ALOptions`, `HomotopyOptions`, `CondensedOptions`) or None for its
-    defaults.
+    the family's default (minimum time: "condensed" on a `SegmentedMesh`). options: the
+    method's frozen options object (`NewtonOptions`, `ALOptions`, `HomotopyOptions`,
+    `CondensedOptions`) or None for its defaults.
     tolerance: a `Tolerance` (SI: position m, velocity m/s; None: `DEFAULT_TOLERANCE`): a
     converged solution whose error estimate between the nodes exceeds it is INACCURATE.
     throw: an unbatched, concrete solve that does not end SUCCESS raises `SolveError` (its

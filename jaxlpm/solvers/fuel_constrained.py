@@ -25,9 +25,10 @@ linear model's warm start instead, the eps = 1 problem ended INFEASIBLE on the J
 `jaxlpm.cases.approach` (the penalty at its cap with the abort-safety drift still inside the
 sphere), though the energy-optimal solution is feasible there.
 
-Every Newton-KKT system is solved by the condensed step where the transfer allows it (every
-thrust axis: `jaxlpm.nlp.condensed_segments.condensed_linear_algebra`, the path terms' Hessian
-being block diagonal over the points like the dynamics'), else by the dense LU.
+Every Newton-KKT system is solved as the energy-optimal transfer's are
+(`jaxlpm.solvers.transfer.auto_linear_algebra`: the condensed step with every thrust axis, the
+path terms' Hessian being block diagonal over the points like the dynamics', else the dense
+LU).
 
 The reported delta-v is that of the solution's own control, int |u| dt by the mesh's
 quadrature, not the smoothed cost; l_eps(w) >= (1 - eps) w, so the smoothed optimum's delta-v
@@ -45,11 +46,10 @@ import jax.numpy as jnp
 from ..compilation import compiled
 from ..collocation.segments import SegmentedMesh, tau_mesh
 from ..implicit import root
-from ..nlp.condensed_segments import condensed_linear_algebra
 from ..nlp.augmented_lagrangian import (ALOptions, al_kkt_residual, augmented_lagrangian,
                                         stack_kkt_point)
 from ..nlp.homotopy import smoothed_cost
-from ..nlp.newton import DenseKKT, NewtonOptions, NLPResult
+from ..nlp.newton import NewtonOptions, NLPResult
 from ..nlp.ocp import PathPenalty
 from ..nlp.transcription import objective, unpack
 from ..problems import safety
@@ -59,7 +59,7 @@ from ..problems.fuel_optimal import FuelOptimalTransfer, delta_v_unit, rocket_fu
 from ..problems.scaling import safe_norm
 from ..status import Status
 from .energy_optimal import rung_options
-from .transfer import condensable, linear_warm_start
+from .transfer import auto_linear_algebra, linear_warm_start
 
 
 BURN_THRESHOLD = 10.0    # a point fires where its throttle exceeds this x delta: a coast point
@@ -216,7 +216,7 @@ def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
     fixed = jax.lax.stop_gradient((energy, ocp, energy_ocp))
     z0, _ = linear_warm_start(fixed[0].replace(constraints=()), fixed[2], grid)
     al = rung_options(options.al, mesh.n_segments)
-    la = condensed_linear_algebra if condensable(energy, grid) else DenseKKT
+    la = auto_linear_algebra(energy, grid)
     first = augmented_lagrangian(fixed[2], grid, z0, options=al, linear_algebra=la)
     res, (statuses, dvs, outer, inner) = jax.lax.stop_gradient(
         _continuation(fixed[1], grid, first, options, al, unit, la))

@@ -7,8 +7,9 @@ homotopy to the bang-bang fuel optimum).
 `jaxlpm.solve(problem, mesh)` (`run`): one mesh (jit; vmap over problems and meshes of one
 shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy tolerance
 (`refine_transfer`; `solve(problem, MeshLadder(rungs, scheme="LG"))` on LG segments).
-`indirect_fuel_optimal(problem, breaks)`: the paper's indirect method on the linear model, shooting on the costates with the smoothed switching law, continued in eps
-from the LGR costates. `refine_fuel_optimal(problems, segments, points)`: host-side passes over
+`indirect_fuel_optimal(problem, breaks)`: the paper's indirect method on the linear model,
+shooting on the costates with the smoothed switching law, continued in eps from the LGR
+costates. `refine_fuel_optimal(problems, segments, points)`: host-side passes over
 meshes with a break at every switching time of the previous solution (`aligned_breaks`), the
 first mesh uniform, until the fuel changes by less than `fuel_tol` (relative); a batch of
 problems is solved member by member (or in vmapped groups) each pass.

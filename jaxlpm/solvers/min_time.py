@@ -256,15 +256,15 @@ def run(problem, grid, method, options) -> Solution:
     meshes (`LGRMesh`, `LGMesh`, `LGLMesh`): jit-compiled once per grid size (and options);
     vmap- and grad-able (implicit differentiation at the KKT point). Traced bad input gives
     status INVALID_INPUT and zeroed outputs. INFEASIBLE only where infeasibility is shown:
-    t_max below
-    `duration_lower_bound` (then no solve runs: outputs zero, stats["duration_lower_bound"]
-    the bound), or the AL's certificate (the violation stalls with the penalty at its cap)
-    with the t_max bound active. Any other such stall ends STALLED. Without duration bounds
-    every request is feasible (HCW is controllable with every eigenvalue on the imaginary
-    axis, so bounded thrust reaches any state from any state; Lee & Markus 1967): a stall
-    there typically means a grid too coarse for the transfer's revolutions (the state
-    oscillates once per orbit, and a global polynomial needs several points per orbit: 64 LG
-    points resolve the 5 orbits of a 0.01 N transfer in the tests, 16 do not).
+    t_max below `duration_lower_bound` (then no solve runs: outputs zero,
+    stats["duration_lower_bound"] the bound), or the AL's certificate (the violation stalls
+    with the penalty at its cap) with the t_max bound active. Any other such stall ends
+    STALLED. Without duration bounds every request is feasible (HCW is controllable with
+    every eigenvalue on the imaginary axis, so bounded thrust reaches any state from any
+    state; Lee & Markus 1967): a stall there typically means a grid too coarse for the
+    transfer's revolutions (the state oscillates once per orbit, and a global polynomial
+    needs several points per orbit: 64 LG points resolve the 5 orbits of a 0.01 N transfer
+    in the tests, 16 do not).
 
     Method "condensed" (every model and eccentricity), on a `SegmentedMesh`:
     `jaxlpm.solvers.min_time_condensed.run`."""

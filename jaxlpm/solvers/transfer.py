@@ -83,11 +83,17 @@ def _condenses(problem, grid):
     return isinstance(grid, (Grid, Mesh)) and all(problem.thrust_axes)
 
 
-def condensable(problem, grid):
+def _condensable(problem, grid):
     """Where the transfer's Newton-KKT may take the condensed solve (`_condenses`); on the
     linear model a single grid keeps the dense solve (one Newton step of a QP) and a mesh,
     whose dense KKT matrix grows with the square of its points, takes the condensed one."""
     return _condenses(problem, grid) and (problem.model != "linear" or isinstance(grid, Mesh))
+
+
+def auto_linear_algebra(problem, grid):
+    """What linear_algebra="auto" picks for the transfer's Newton-KKT systems, with or without
+    safety constraints: the condensed one where `_condensable`, else `DenseKKT`."""
+    return condensed_linear_algebra if _condensable(problem, grid) else DenseKKT
 
 
 def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOptions(),
@@ -134,12 +140,12 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
     if linear_algebra not in LINEAR_ALGEBRA:
         raise ValueError(f"linear_algebra must be one of {LINEAR_ALGEBRA}, got "
                          f"{linear_algebra!r}")
-    can_condense = condensable(problem, grid)
-    if linear_algebra == "condensed" and not can_condense:
-        raise ValueError("linear_algebra='condensed' needs a nonlinear model ('two-body', "
-                         "'j2') and every thrust axis; use 'dense' or 'auto'")
-    la = (condensed_linear_algebra if linear_algebra == "condensed"
-          or (linear_algebra == "auto" and can_condense) else DenseKKT)
+    if linear_algebra == "condensed" and not _condensable(problem, grid):
+        raise ValueError("linear_algebra='condensed' needs every thrust axis, and on the "
+                         "linear model a mesh (lgr_mesh, lg_mesh, lgl_mesh); use 'dense' or "
+                         "'auto'")
+    la = (auto_linear_algebra(problem, grid) if linear_algebra == "auto"
+          else condensed_linear_algebra if linear_algebra == "condensed" else DenseKKT)
     extra = None
     if constrained:
         al = augmented_lagrangian(ocp, grid, z0, options=options, linear_algebra=la)
