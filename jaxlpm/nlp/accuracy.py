@@ -82,9 +82,11 @@ def check_mesh(grid) -> LGRMesh:
     small (12 x n_x unknowns) whatever the grid. A `PaddedGrid` of lgl(n): lgl(n)'s pieces,
     then pieces of zero length at tau = 1 up to its capacity's count."""
     if type(grid) is Grid:
-        # fixed nodes: a mesh of constants, so that `_interpolate` has host matrices
-        with jax.ensure_compile_time_eval():
-            return _check_mesh(grid)
+        # fixed nodes: a mesh of constants (host arithmetic), so that `_interpolate` has host
+        # matrices
+        c = check_pieces(grid.n)
+        return LGRMesh(breaks=jnp.asarray(np.linspace(-1.0, 1.0, c + 1)),
+                       segment=lgr_mesh(1, CHECK_POINTS).segment)
     return _check_mesh(grid)
 
 
@@ -154,9 +156,9 @@ def _check_inputs(ocp_check, check, grid, X, U, sf, control_map):
     s0 = ocp_check.s0
     k, m, n_x = check.n_segments, check.segment.n, X.shape[-1]
     with jax.ensure_compile_time_eval():
-        # constants where the check mesh's breaks are
+        # constants where the check mesh's breaks are (NumPy then: `Mesh.xp`)
         tau = check.points
-        rows = jnp.concatenate([tau, check.breaks[1:]])
+        rows = check.xp.concatenate([tau, check.xp.asarray(check.breaks)[1:]])
     states, Uc = _interpolate(grid, X[support_rows(grid)], U, rows)
     Uc = Uc[:tau.size]
     if control_map is not None:

@@ -34,9 +34,11 @@ flies every member of the robustness dispersion).
 
 from dataclasses import dataclass
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._validation import is_concrete
 from ..status import Status
 
 
@@ -115,10 +117,20 @@ def judge(solution, tolerance: Tolerance):
     is)."""
     if "error_position" not in solution.stats:
         return solution
-    status = jnp.where((solution.status == Status.SUCCESS)
-                       & inaccurate(solution.stats, tolerance),
+    stats = {k: v for k, v in solution.stats.items() if k in _JUDGED}
+    if is_concrete(solution.status, stats):
+        # on the host: jnp on concrete arrays would compile a small program per operation
+        status, stats = np.asarray(solution.status), jax.tree_util.tree_map(np.asarray, stats)
+        return solution.replace(status=jnp.asarray(np.where(
+            (status == Status.SUCCESS) & inaccurate(stats, tolerance), Status.INACCURATE,
+            status).astype(np.int32)))
+    status = jnp.where((solution.status == Status.SUCCESS) & inaccurate(stats, tolerance),
                        Status.INACCURATE, solution.status).astype(jnp.int32)
     return solution.replace(status=status)
+
+
+_JUDGED = ("error_position", "error_velocity", "path_violation", "violation_position",
+           "violation_velocity")
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._validation import is_concrete
-from ..compilation import compiled
+from ..compilation import compiled, pipelined
 from ..collocation import Grid, lgl
 from ..collocation.padded import pad_grid
 from ..collocation.segments import Mesh
@@ -46,7 +46,7 @@ from .family import FamilySolver
 from .lq import kkt_law, stm_law, unpadded
 from ..problems.energy_optimal import scaled_rows
 from .refine import DEFAULT_LADDER, MeshLadder, interpolated_guess, refine
-from .transfer import newton_transfer
+from .transfer import check_transfer, transfer_setup, transfer_solution, transfer_solve
 
 DEFAULT_POINTS = 65            # Mei 2010's N = 64
 MIN_LAW_POINTS = 4   # the KKT law needs interior nodes beyond the 2 velocity conditions per axis
@@ -55,14 +55,21 @@ _LAWS = {"stm": compiled(stm_law),
          "kkt": compiled(kkt_law, static_argnames=("estimate", "multipliers"))}
 
 
-@compiled(static_argnames="options")
-def _newton(problem, grid, options):
-    return newton_transfer(problem, grid, options)
+_setup = compiled(transfer_setup, static_argnames="warm_start")
+_solve = compiled(transfer_solve, static_argnames=("options", "linear_algebra"))
+_solution = compiled(transfer_solution)
 
 
-@compiled(static_argnames="options")
-def _newton_from(problem, grid, options, z0):
-    return newton_transfer(problem, grid, options, z0=z0)
+def _newton(problem, grid, options, z0=None):
+    """`newton_transfer` (from z0, else the warm start) as its three stages, each compiled
+    apart: the first solve of a signature compiles them side by side (`pipelined`)."""
+    check_transfer(problem, grid, options)
+
+    def run():
+        setup = _setup(problem, grid, z0=z0)
+        return _solution(setup, grid, *_solve(setup, grid, options))
+
+    return pipelined(run, _setup, problem, grid, z0=z0)
 
 
 @compiled
@@ -93,8 +100,7 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder = DEFAULT_LADDER
 
     def solve_on(mesh, z0):
         rung = rung_options(options, mesh.n_segments)
-        return (_newton(problem, mesh, rung) if z0 is None
-                else _newton_from(problem, mesh, rung, z0))
+        return _newton(problem, mesh, rung, z0)
 
     return refine(solve_on, _guess, ladder, judge)
 

@@ -10,9 +10,12 @@ problem's array leaves (e, a, duration, boundary states, J2, the constraints' nu
 from the implicit function theorem at the KKT point.
 """
 
+from typing import NamedTuple
+
 import jax
 import jax.numpy as jnp
 
+from ..problems import EnergyOptimalTransfer
 from ..problems.energy_optimal import (control_scale, lvlh_state, model_state, to_solution,
                                        transfer_chief, transfer_ocp)
 from ..nlp.transcription import equality, pack, state_s, state_tau, unpack
@@ -117,16 +120,54 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
     INVALID_INPUT with zeroed outputs; a failed chief integration (model "j2") gives
     NONFINITE. z0: an initial guess in the solver's units (`refine.interpolated_guess`: a
     coarser solution of the same problem), in place of the warm start.
+
+    The three stages (`transfer_setup`, `transfer_solve`, `transfer_solution`) are what
+    `jaxlpm.solvers.energy_optimal` compiles apart, so that the first solve compiles them
+    side by side (`jaxlpm.compilation.pipelined`).
     """
+    check_transfer(problem, grid, options, linear_algebra)
+    setup = transfer_setup(problem, grid, warm_start, z0)
+    return transfer_solution(setup, grid, *transfer_solve(setup, grid, options, linear_algebra))
+
+
+def check_transfer(problem, grid, options, linear_algebra="auto"):
+    """Raise ValueError for options or a linear algebra that `newton_transfer` cannot use."""
     constrained = bool(problem.constraints)
     if not isinstance(options, ALOptions if constrained else NewtonOptions):
         raise ValueError(f"options must be {'ALOptions' if constrained else 'NewtonOptions'} "
                          f"for a transfer {'with' if constrained else 'without'} safety "
                          f"constraints, got {type(options).__name__}")
+    if linear_algebra not in LINEAR_ALGEBRA:
+        raise ValueError(f"linear_algebra must be one of {LINEAR_ALGEBRA}, got "
+                         f"{linear_algebra!r}")
+    if linear_algebra == "condensed" and not _condensable(problem, grid):
+        raise ValueError("linear_algebra='condensed' needs every thrust axis, and on the "
+                         "linear model a mesh (lgr_mesh, lg_mesh, lgl_mesh); use 'dense' or "
+                         "'auto'")
+
+
+class TransferSetup(NamedTuple):
+    """What `transfer_setup` hands the solve: the problem with invalid values replaced
+    (`sanitized`) and whether it was valid, the final anomaly s_f (rad), the chief at the
+    grid's and at the check mesh's state rows (`transfer_chief`), the initial guess z0 (the
+    solver's scaled unknowns) and whether the linear model found the target unreachable."""
+
+    problem: EnergyOptimalTransfer
+    valid: jax.Array
+    s_f: jax.Array
+    rows_chief: tuple
+    check_chief: tuple
+    z0: jax.Array
+    linear_singular: jax.Array
+
+
+def transfer_setup(problem, grid, warm_start: bool = True, z0=None) -> TransferSetup:
+    """`newton_transfer`'s first stage: validity, the chief, and the initial guess (z0 as
+    given, else the linear model's warm start, else zeros)."""
     valid = problem.validity()
     problem = problem.sanitized(valid)
     s_f, rows_chief, check_chief = transfer_chief(problem, grid)
-    ocp, chief, ok = transfer_ocp(problem, grid, s_f, rows_chief)
+    ocp, _, _ = transfer_ocp(problem, grid, s_f, rows_chief)
     if z0 is not None:
         z0, linear_singular = jax.lax.stop_gradient(z0), jnp.array(False)
     elif warm_start:       # an initial guess: not differentiated, member by member under vmap
@@ -136,36 +177,43 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
         n_rows = state_tau(grid).shape[0]
         z0 = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp.sf, ocp)
         linear_singular = jnp.array(False)
-    homotopy = None if problem.model == "linear" else separation_homotopy
-    if linear_algebra not in LINEAR_ALGEBRA:
-        raise ValueError(f"linear_algebra must be one of {LINEAR_ALGEBRA}, got "
-                         f"{linear_algebra!r}")
-    if linear_algebra == "condensed" and not _condensable(problem, grid):
-        raise ValueError("linear_algebra='condensed' needs every thrust axis, and on the "
-                         "linear model a mesh (lgr_mesh, lg_mesh, lgl_mesh); use 'dense' or "
-                         "'auto'")
+    return TransferSetup(problem, valid, s_f, rows_chief, check_chief, z0, linear_singular)
+
+
+def transfer_solve(setup: TransferSetup, grid, options, linear_algebra: str = "auto"):
+    """`newton_transfer`'s second stage: (`NLPResult`, the augmented Lagrangian's extra
+    stats or None) of Newton-KKT, or with safety constraints the augmented Lagrangian, from
+    setup.z0."""
+    problem = setup.problem
+    ocp, _, _ = transfer_ocp(problem, grid, setup.s_f, setup.rows_chief)
     la = (auto_linear_algebra(problem, grid) if linear_algebra == "auto"
           else condensed_linear_algebra if linear_algebra == "condensed" else DenseKKT)
-    extra = None
-    if constrained:
-        al = augmented_lagrangian(ocp, grid, z0, options=options, linear_algebra=la)
-        result = NLPResult(z=al.z, multipliers=al.multipliers, status=al.status,
-                           iterations=al.inner_iterations,
-                           constraint_residual=al.constraint_residual,
-                           stationarity_residual=al.stationarity_residual, history=al.history,
-                           regularisation=jnp.zeros((), z0.dtype))
-        extra = dict(outer_iterations=al.outer_iterations, path_residual=al.path_residual,
-                     complementarity=al.complementarity,
-                     path_multipliers=al.path_multipliers.inequality)
-    else:
-        result = newton_kkt(ocp, grid, z0, options=options, homotopy=homotopy,
-                            linear_algebra=la)
+    if not problem.constraints:
+        homotopy = None if problem.model == "linear" else separation_homotopy
+        return newton_kkt(ocp, grid, setup.z0, options=options, homotopy=homotopy,
+                          linear_algebra=la), None
+    al = augmented_lagrangian(ocp, grid, setup.z0, options=options, linear_algebra=la)
+    result = NLPResult(z=al.z, multipliers=al.multipliers, status=al.status,
+                       iterations=al.inner_iterations,
+                       constraint_residual=al.constraint_residual,
+                       stationarity_residual=al.stationarity_residual, history=al.history,
+                       regularisation=jnp.zeros((), setup.z0.dtype))
+    return result, dict(outer_iterations=al.outer_iterations, path_residual=al.path_residual,
+                        complementarity=al.complementarity,
+                        path_multipliers=al.path_multipliers.inequality)
+
+
+def transfer_solution(setup: TransferSetup, grid, result: NLPResult, extra=None) -> Solution:
+    """`newton_transfer`'s last stage: the `Solution` (SI, LVLH) with its status and error
+    estimate."""
+    problem = setup.problem
+    ocp, chief, ok = transfer_ocp(problem, grid, setup.s_f, setup.rows_chief)
     # a failed solve whose linearisation cannot reach the target with the thrust axes given
     # is reported as what it is: SINGULAR (uncontrollable), not a solver failure
-    status = jnp.where(linear_singular & (result.status != Status.SUCCESS), Status.SINGULAR,
-                       result.status)
-    status = jnp.where(valid, jnp.where(ok, status, Status.NONFINITE),
+    status = jnp.where(setup.linear_singular & (result.status != Status.SUCCESS),
+                       Status.SINGULAR, result.status)
+    status = jnp.where(setup.valid, jnp.where(ok, status, Status.NONFINITE),
                        Status.INVALID_INPUT).astype(jnp.int32)
-    return to_solution(problem, ocp, grid, chief, result, status, valid,
-                       method="augmented-lagrangian" if constrained else "newton", extra=extra,
-                       check_chief=check_chief)
+    return to_solution(problem, ocp, grid, chief, result, status, setup.valid,
+                       method="augmented-lagrangian" if problem.constraints else "newton",
+                       extra=extra, check_chief=setup.check_chief)
