@@ -55,6 +55,14 @@ not end on zeros): it is for fixed sequences of solves such as a reproduction's 
 reproduce`); an exception in it ends the dry run early, and the real run compiles what is
 left as usual.
 
+`pipelined(run, first, *args)` is the same for one solve: the families' solvers are compiled
+as a few programs each (a Newton-KKT transfer: its setup and warm start, its Newton-KKT or
+augmented-Lagrangian iterations, its solution and error estimate), and the first solve of a
+signature (its first program not in memory) compiles them by a prefetch dry run, so that one
+compiles on the second core while the next is traced. mei2010's first Newton-KKT transfer
+(two-body, lgl(65)): 5.5 s as one program, 4.0 s as three (bench_compile.py, BENCHMARKS.md
+"Cold start", 2026-12-06, seventh session).
+
 The folder is JAXLPM_CACHE_DIR (default ~/.cache/jaxlpm/jax, the CLI's compilation cache);
 JAXLPM_CACHE_DIR="" turns the disk cache off. `clear()` empties the memory cache (the test
 suite calls it with `jax.clear_caches()` between modules).
@@ -216,8 +224,9 @@ class Compiled:
         key = self._key(dynamic, static)
         if key is None:
             return self.jit(dynamic, static)
-        if _prefetching is not None:
-            return _prefetching.dry_call(self, key, dynamic, static)
+        dry = _dry_run()
+        if dry is not None:
+            return dry.dry_call(self, key, dynamic, static)
         executable = _memory.get(key)
         if executable is not None and key not in _from_disk:
             return executable(dynamic)
@@ -343,18 +352,20 @@ class _Prefetch:
         self.pool.shutdown()
 
 
-_prefetching: _Prefetch | None = None
+def _dry_run() -> _Prefetch | None:
+    """The dry run this thread is in, or None (per thread: another thread's solves run as
+    usual meanwhile)."""
+    return getattr(_local, "dry_run", None)
 
 
 def prefetch(run, log=None, workers: int = 2) -> int:
     """Compile what `run()` needs, `workers` programs at a time, by a dry run (module
     docstring); returns the number of programs compiled. log(str): a line per program
     submitted and per program compiled. Not reentrant: inside a prefetch, runs `run` as is."""
-    global _prefetching
-    if _prefetching is not None:
+    if _dry_run() is not None:
         run()
         return 0
-    state = _prefetching = _Prefetch(workers, log)
+    state = _local.dry_run = _Prefetch(workers, log)
     try:
         run()
     except Exception as err:                            # noqa: BLE001 (the real run will tell)
@@ -362,7 +373,7 @@ def prefetch(run, log=None, workers: int = 2) -> int:
             log(f"dry run stopped early ({type(err).__name__}: {err}); the rest compiles "
                 f"as it is reached")
     finally:
-        _prefetching = None
+        _local.dry_run = None
         state.finish()
     return state.compiling
 
@@ -371,10 +382,8 @@ def pipelined(run, first, *args, **kwargs):
     """run(), a fixed sequence of compiled calls whose first is first(*args, **kwargs).
     Where that one is not in memory, `prefetch(run)` first: each program is traced in turn and
     compiled (or loaded from disk) on a second core while the next one is traced, instead of
-    one after the other (a Newton-KKT transfer split into its setup, its solve and its
-    solution compiles in 3.9 s instead of 5.2 s, 2-core VM). Inside a prefetch, or traced,
-    run() as it is."""
-    if _prefetching is None and not first.ready(*args, **kwargs):
+    one after the other (module docstring). Inside a prefetch, or traced, run() as it is."""
+    if _dry_run() is None and not first.ready(*args, **kwargs):
         prefetch(run)
     return run()
 

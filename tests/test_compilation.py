@@ -176,3 +176,58 @@ def test_prefetch_compiles_what_the_run_needs(monkeypatch):
     assert any("stopped early" in line for line in lines)
     fails_on_zeros()                                         # compiles the second program
     compilation.clear()
+
+
+def test_pipelined_solve_compiles_its_stages_once_and_matches_one_program(monkeypatch):
+    """A first Newton-KKT solve compiles its three stages by one prefetch dry run
+    (`compilation.pipelined`), a second solve of the same signature neither dry-runs nor
+    compiles, and the stages give the transfer of the whole solver compiled as one program
+    (`jax.jit(newton_transfer)`)."""
+    from jaxlpm.solution.accuracy import Judge
+    from jaxlpm.solvers.transfer import newton_transfer
+
+    monkeypatch.setenv("JAXLPM_CACHE_DIR", "")            # memory only: nothing from disk
+    dry_runs = []
+    prefetch = compilation.prefetch
+    monkeypatch.setattr(compilation, "prefetch", lambda run: dry_runs.append(prefetch(run)))
+    problem, grid = mei2010.problem().replace(model="two-body"), lpm.lgl(17)
+    compilation.clear()
+    before = len(compilation.events)
+    staged = lpm.solve(problem, grid, method="newton", throw=False)
+    names = sorted(e["name"].rsplit(".", 1)[-1] for e in compilation.events[before:])
+    assert names == ["transfer_setup", "transfer_solution", "transfer_solve"]
+    assert dry_runs == [3]
+    lpm.solve(problem, grid, method="newton", throw=False)
+    assert dry_runs == [3] and len(compilation.events) == before + 3
+    whole = jax.jit(newton_transfer)(problem, grid)
+    assert int(whole.status) == Status.SUCCESS
+    assert int(staged.status) == int(Judge()(whole).status)   # solve's verdict, as its own
+    # the same iterations in other programs: XLA fuses them differently, so only round-off
+    # separates the two (the Newton-KKT tolerance is 1e-10 in the solver's units)
+    np.testing.assert_allclose(float(staged.cost), float(whole.cost), rtol=1e-9)
+    u = np.asarray(whole.node_controls)
+    np.testing.assert_allclose(staged.node_controls, u, rtol=0,
+                               atol=1e-9 * np.max(np.abs(u)))
+    compilation.clear()
+
+
+def test_a_dry_run_answers_only_its_own_thread(monkeypatch):
+    """Every first solve may dry-run (`pipelined`): another thread's calls meanwhile run as
+    usual, with their real values, not the dry run's zeros."""
+    import threading
+
+    monkeypatch.setenv("JAXLPM_CACHE_DIR", "")
+    inside, leave = threading.Event(), threading.Event()
+
+    def run():
+        _scaled_sum(jnp.arange(3.0), 2.0)
+        inside.set()
+        leave.wait(60)
+
+    worker = threading.Thread(target=compilation.prefetch, args=(run,))
+    worker.start()
+    assert inside.wait(60)
+    total, _ = _scaled_sum(jnp.arange(3.0), 2.0)         # this thread, during the dry run
+    leave.set()
+    worker.join()
+    assert float(total) == 6.0                           # (0 + 1 + 2) * 2

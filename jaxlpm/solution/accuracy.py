@@ -49,9 +49,9 @@ class Tolerance:
     between the nodes (`stats["error_position"]`, `stats["error_velocity"]`), and the largest
     path-constraint violation between the nodes (`stats["path_violation"]`, in the family's
     unit: for the fuel-optimal thrust bound the delta-v beyond it, m/s, so the default is
-    the velocity tolerance; the same for an energy-optimal `ThrustLimit`; ignored by families without path constraints). Safety constraints in m (keep-out,
-    approach cone, passive safety) are judged against `position`, speed limits against
-    `velocity`."""
+    the velocity tolerance; the same for an energy-optimal `ThrustLimit`; ignored by
+    families without path constraints). Safety constraints in m (keep-out, approach cone,
+    passive safety) are judged against `position`, speed limits against `velocity`."""
 
     position: float = 0.1
     velocity: float = 1e-4

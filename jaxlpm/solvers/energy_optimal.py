@@ -3,13 +3,16 @@
 "kkt" (Mei 2010 §3.2, collocated state equations) and "stm" (§3.1, Gramian of the
 Yamanaka-Ankersen STM) are the closed-form laws of the linear (Tschauner-Hempel) model on LGL
 grids (`jaxlpm.solvers.lq`); "newton" is the Newton-KKT solver of the NLP engine on any model
-("linear", "two-body", "j2") and grid (LGL, LG, LGR) (`jaxlpm.solvers.transfer`); "augmented-lagrangian" the same Newton-KKT
-iterations inside the augmented Lagrangian, for transfers with safety constraints
-(`jaxlpm.problems.safety`), the only method they take. Each is jit-compiled once per (method,
-grid, options), except that a concrete solve by a law runs on its grid padded to 129 points
-(`jaxlpm.collocation.padded`: one program per law for every grid up to lgl(129), the solution
-gathered back onto its own grid; traced, under jit or vmap, it runs on the grid itself). Default: "augmented-lagrangian" with constraints, else "kkt" for the linear
-model on an LGL grid, "newton" otherwise; default grid lgl(65) (Mei 2010's N = 64).
+("linear", "two-body", "j2") and grid (LGL, LG, LGR) (`jaxlpm.solvers.transfer`);
+"augmented-lagrangian" the same Newton-KKT iterations inside the augmented Lagrangian, for
+transfers with safety constraints (`jaxlpm.problems.safety`), the only method they take. Each
+is jit-compiled once per (method, grid, options) (Newton-KKT and the augmented Lagrangian as
+three programs, compiled side by side: `jaxlpm.compilation.pipelined`), except that a
+concrete solve by a law runs on its grid padded to 129 points (`jaxlpm.collocation.padded`:
+one program per law for every grid up to lgl(129), the solution gathered back onto its own
+grid; traced, under jit or vmap, it runs on the grid itself). Default:
+"augmented-lagrangian" with constraints, else "kkt" for the linear model on an LGL grid,
+"newton" otherwise; default grid lgl(65) (Mei 2010's N = 64).
 
 `Solution.stats`: node_f / node_s (the independent variable at the collocation points, rad),
 cost_true_anomaly (k^2 cost, m^2/s^4: Mei 2010 eq. 8's normalisation), multipliers,

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import jax
 import jax.numpy as jnp
 
-from ..compilation import compiled
+from ..compilation import compiled, pipelined
 from ..collocation.segments import SegmentedMesh, tau_mesh
 from ..implicit import root
 from ..nlp.augmented_lagrangian import (ALOptions, al_kkt_residual, augmented_lagrangian,
@@ -54,9 +54,10 @@ from ..nlp.ocp import PathPenalty
 from ..nlp.transcription import objective, unpack
 from ..problems import safety
 from ..problems.energy_optimal import (OnModelData, control_scale, cost_scale, to_solution,
-                                       transfer_ocp)
+                                       transfer_chief, transfer_ocp)
 from ..problems.fuel_optimal import FuelOptimalTransfer, delta_v_unit, rocket_fuel
 from ..problems.scaling import safe_norm
+from ..solution import Solution
 from ..status import Status
 from .energy_optimal import rung_options
 from .transfer import auto_linear_algebra, linear_warm_start
@@ -133,21 +134,35 @@ class DeltaV:
         return time_rate(self.model, s, data, p) * safe_norm(u)
 
 
-def constrained_ocp(problem: FuelOptimalTransfer, grid):
+def constrained_ocp(problem: FuelOptimalTransfer, grid, s_f=None, chief=None):
     """(ocp, energy ocp, chief, ok, energy problem): the transcription on `grid` (an
     `LGRMesh`) with the smoothed delta-v (eps = 1), the thrust bound (a `ThrustLimit`, last)
     and the safety constraints as path inequalities; the energy problem is the
     energy-optimal transfer with those constraints, and its ocp the same transcription with
-    its running cost (its scaling, solution and dense check are this one's)."""
-    energy = problem.energy_problem(problem.constraints
-                                    + (safety.ThrustLimit(problem.max_acceleration),))
-    energy_ocp, chief, ok = transfer_ocp(energy, grid)
+    its running cost (its scaling, solution and dense check are this one's). s_f, chief: as
+    `transfer_ocp` takes them (`chief_rows`), None: computed here."""
+    energy = energy_problem(problem)
+    energy_ocp, chief, ok = transfer_ocp(energy, grid, s_f, chief)
     umax = problem.max_acceleration / control_scale(energy)
     zero = jnp.zeros_like(umax)
     ocp = energy_ocp.replace(running_cost=OnModelData(SmoothedDeltaV(problem.model)),
                              params={**energy_ocp.params, "umax": umax, "eps": 1.0 + zero,
                                      "delta": zero})
     return ocp, energy_ocp, chief, ok, energy
+
+
+def energy_problem(problem: FuelOptimalTransfer):
+    """The energy-optimal transfer with the problem's safety constraints and its thrust bound
+    (a `ThrustLimit`, last)."""
+    return problem.energy_problem(problem.constraints
+                                  + (safety.ThrustLimit(problem.max_acceleration),))
+
+
+def chief_rows(problem: FuelOptimalTransfer, grid):
+    """(s_f, (the chief at the grid's state rows, ok)) for `constrained_ocp`: one chief
+    integration, which the solve's stages share."""
+    s_f, rows, _ = transfer_chief(energy_problem(problem), grid)
+    return s_f, rows
 
 
 def energy_to_fuel_scale(model, p):
@@ -207,19 +222,43 @@ def unpack_kkt(w, res):
     return w[:n], w[n:n + m]
 
 
-def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
+def fuel_al_setup(problem, mesh: SegmentedMesh, options: FuelALOptions):
+    """The solve's first stage: (the problem with invalid values replaced, whether it was
+    valid, the chief (`chief_rows`), the energy-optimal start: an `ALResult` of the same
+    transcription)."""
     valid = problem.validity()
     problem = problem.sanitized(valid)
     grid = tau_mesh(mesh)
-    ocp, energy_ocp, chief, ok, energy = constrained_ocp(problem, grid)
+    chief = chief_rows(problem, grid)
+    _, energy_ocp, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *chief))
+    z0, _ = linear_warm_start(energy.replace(constraints=()), energy_ocp, grid)
+    first = augmented_lagrangian(energy_ocp, grid, z0, options=_al(options, mesh),
+                                 linear_algebra=auto_linear_algebra(energy, grid))
+    return problem, valid, chief, first
+
+
+def _al(options: FuelALOptions, mesh):
+    return rung_options(options.al, mesh.n_segments)
+
+
+def fuel_al_continuation(problem, mesh: SegmentedMesh, chief, first,
+                         options: FuelALOptions):
+    """The solve's second stage: `_continuation` from `fuel_al_setup`'s start."""
+    grid = tau_mesh(mesh)
+    ocp, _, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *chief))
+    return jax.lax.stop_gradient(_continuation(
+        ocp, grid, first, options, _al(options, mesh), delta_v_unit(problem),
+        auto_linear_algebra(energy, grid)))
+
+
+def fuel_al_solution(problem, mesh: SegmentedMesh, valid, chief, first, continued,
+                     options: FuelALOptions) -> Solution:
+    """The solve's last stage: the KKT point at the last eps (differentiable), its stats
+    and the `Solution`."""
+    res, (statuses, dvs, outer, inner) = continued
+    grid = tau_mesh(mesh)
+    ocp, energy_ocp, chief, ok, energy = constrained_ocp(problem, grid, *chief)
     unit = delta_v_unit(problem)
-    fixed = jax.lax.stop_gradient((energy, ocp, energy_ocp))
-    z0, _ = linear_warm_start(fixed[0].replace(constraints=()), fixed[2], grid)
-    al = rung_options(options.al, mesh.n_segments)
-    la = auto_linear_algebra(energy, grid)
-    first = augmented_lagrangian(fixed[2], grid, z0, options=al, linear_algebra=la)
-    res, (statuses, dvs, outer, inner) = jax.lax.stop_gradient(
-        _continuation(fixed[1], grid, first, options, al, unit, la))
     final = _at(ocp, options.eps[-1], options)
     w = _at_kkt_point(stack_kkt_point(res), final, grid)
     z, lam = unpack_kkt(w, res)
@@ -241,7 +280,8 @@ def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
                  dv_by_eps=dvs, outer_by_eps=outer, iterations_by_eps=inner,
                  energy_status=first.status, energy_dv=energy_dv,
                  energy_fuel=rocket_fuel(energy_dv, problem),
-                 energy_cost=cost_scale(energy) * objective(first.z, fixed[2], grid),
+                 energy_cost=cost_scale(energy) * objective(
+                     first.z, jax.lax.stop_gradient(energy_ocp), grid),
                  energy_node_controls=control_scale(energy) * unpack(first.z, ocp, grid)[1],
                  outer_iterations=jnp.sum(outer), path_residual=res.path_residual,
                  complementarity=res.complementarity,
@@ -254,15 +294,37 @@ def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
                        stats={**stats, "fuel": jnp.where(valid, stats["fuel"], 0.0)})
 
 
-constrained_fuel_optimal = compiled(_constrained_fuel, static_argnames="options")
-"""Solve a `FuelOptimalTransfer` with safety constraints on one `SegmentedMesh` (breaks as
-fractions of the anomaly span), jit-compiled once per mesh shape and options, vmap-able: a
-`Solution` (SI, LVLH) whose cost is the delta-v int |u| dt (m/s); stats add fuel (kg), eps,
-smoothed_cost (m/s), node_throttle, burn_threshold (the throttle above which a point
-fires), the continuation's status_by_eps, dv_by_eps (m/s),
-outer_by_eps, iterations_by_eps, energy_status / energy_dv / energy_fuel / energy_cost /
-energy_node_controls (the energy-optimal start: the transfer with the bound and the
-constraints), the augmented Lagrangian's outer_iterations,
-path_residual, complementarity and path_multipliers, and the dense check of every
-constraint (constraint_violation, the thrust bound last; violation_position m,
-violation_velocity m/s, path_violation: the delta-v beyond the bound, m/s)."""
+def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
+    problem, valid, chief, first = fuel_al_setup(problem, mesh, options)
+    continued = fuel_al_continuation(problem, mesh, chief, first, options)
+    return fuel_al_solution(problem, mesh, valid, chief, first, continued, options)
+
+
+_setup = compiled(fuel_al_setup, static_argnames="options")
+_continue = compiled(fuel_al_continuation, static_argnames="options")
+_solution = compiled(fuel_al_solution, static_argnames="options")
+
+
+def constrained_fuel_optimal(problem, mesh: SegmentedMesh, options: FuelALOptions):
+    """Solve a `FuelOptimalTransfer` with safety constraints on one `SegmentedMesh` (breaks
+    as fractions of the anomaly span), jit-compiled once per mesh shape and options,
+    vmap-able: a `Solution` (SI, LVLH) whose cost is the delta-v int |u| dt (m/s); stats add
+    fuel (kg), eps, smoothed_cost (m/s), node_throttle, burn_threshold (the throttle above
+    which a point fires), the continuation's status_by_eps, dv_by_eps (m/s), outer_by_eps,
+    iterations_by_eps, energy_status / energy_dv / energy_fuel / energy_cost /
+    energy_node_controls (the energy-optimal start: the transfer with the bound and the
+    constraints), the augmented Lagrangian's outer_iterations, path_residual,
+    complementarity and path_multipliers, and the dense check of every constraint
+    (constraint_violation, the thrust bound last; violation_position m, violation_velocity
+    m/s, path_violation: the delta-v beyond the bound, m/s).
+
+    Compiled as its three stages (`fuel_al_setup`, `fuel_al_continuation`,
+    `fuel_al_solution`): the first solve of a signature compiles them side by side
+    (`pipelined`)."""
+    def run():
+        problem_s, valid, chief, first = _setup(problem, mesh, options)
+        continued = _continue(problem_s, mesh, chief, first, options)
+        return _solution(problem_s, mesh, valid, chief, first, continued, options)
+
+    return pipelined(run, _setup, problem, mesh, options)
+

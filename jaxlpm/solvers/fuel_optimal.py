@@ -46,7 +46,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..compilation import compiled
+from ..compilation import compiled, pipelined
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
 from ..collocation.segments import (SEGMENTED_SCHEMES, LGLMesh, SegmentedMesh, aligned_breaks,
@@ -149,7 +149,10 @@ def _differentiable(z, problem, mesh, eps):
     return z
 
 
-def _fuel_optimal_transfer(problem, mesh, options):
+def fuel_solve(problem, mesh, options):
+    """The solve's first stage: (the problem with invalid values replaced, whether it was
+    valid, the homotopy's result with its status, the final linearisation's reference states,
+    the linearisation stats)."""
     valid = problem.validity()
     problem = problem.sanitized(valid)
     tr = transcribe(problem, mesh)
@@ -163,11 +166,32 @@ def _fuel_optimal_transfer(problem, mesh, options):
     else:
         nu, ref = _differentiable((res.nu, ref), problem, mesh, res.eps)
     res = dataclasses.replace(res, nu=nu, status=status)
-    return to_solution(tr, tr.linearised(ref), res, valid,
-                       extra=dict(linearisations=runs, linearisation_change=change))
+    return problem, valid, res, ref, dict(linearisations=runs, linearisation_change=change)
 
 
-_compiled = compiled(_fuel_optimal_transfer, static_argnames="options")
+def fuel_solution(problem, mesh, valid, res, ref, extra) -> Solution:
+    """The solve's last stage: the `Solution` of `fuel_solve`'s result."""
+    tr = transcribe(problem, mesh)
+    return to_solution(tr, tr.linearised(ref), res, valid, extra=extra)
+
+
+def _fuel_optimal_transfer(problem, mesh, options):
+    problem, valid, res, ref, extra = fuel_solve(problem, mesh, options)
+    return fuel_solution(problem, mesh, valid, res, ref, extra)
+
+
+_solve_stage = compiled(fuel_solve, static_argnames="options")
+_solution_stage = compiled(fuel_solution)
+
+
+def _compiled(problem, mesh, options):
+    """`_fuel_optimal_transfer` as its two stages, each compiled apart: the first solve of a
+    signature compiles them side by side (`pipelined`)."""
+    def run():
+        problem_s, valid, res, ref, extra = _solve_stage(problem, mesh, options)
+        return _solution_stage(problem_s, mesh, valid, res, ref, extra)
+
+    return pipelined(run, _solve_stage, problem, mesh, options)
 
 
 DEFAULT_SEGMENTS, DEFAULT_POINTS = 24, 8     # Yue & Duan 2016's mesh

@@ -38,7 +38,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..compilation import compiled
+from ..compilation import compiled, pipelined
 from .._validation import is_concrete
 from ..collocation import Grid, lg
 from ..collocation.segments import Mesh, SegmentedMesh
@@ -167,37 +167,65 @@ def _first_convex_penalty(ocp, grid, z0, lam0, nu0, options: ALOptions):
     return jnp.where(jnp.any(positive), rhos[jnp.argmax(positive)], options.rho0)
 
 
-def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
+def min_time_setup(problem, grid, options: ALOptions):
+    """The solve's first stage: (the problem as requested and as solved, whether it is
+    valid, whether t_max is below the proven lower bound t_lb (s) (then the solve runs on a
+    harmless problem, like invalid input: the AL would spend its whole penalty schedule
+    failing), t_lb, the starting point (z0, lam0, nu0) and the first penalty)."""
     valid = problem.validity() & problem.is_hcw()
-    # t_max below the proven lower bound: infeasible before any solve, which is skipped (it
-    # runs on the harmless problem, like invalid input: the AL would spend its whole penalty
-    # schedule failing)
     requested = problem.sanitized(valid)
     t_lb = duration_lower_bound(requested)
     hopeless = valid & (t_lb > requested.bounds[1])
     problem = requested.sanitized(~hopeless)
     n = problem.orbit.mean_motion
-    ocp = min_time_ocp(problem, 0.0)
-    fixed = jax.lax.stop_gradient(ocp)                  # a starting point: not differentiated
+    fixed = jax.lax.stop_gradient(min_time_ocp(problem, 0.0))   # a start: not differentiated
     z0, lam0, nu0 = initial_guess(fixed, grid,
                                   jax.lax.stop_gradient(n * duration_lower_bound(problem)))
-    fixed = fixed.replace(sf=z0[-1])
-    rho0 = _first_convex_penalty(fixed, grid, z0, lam0, nu0, options)
-    result = augmented_lagrangian(ocp.replace(sf=z0[-1]), grid, z0, lam0, options=options,
-                                  linear_algebra=CondensedSecondOrder,
-                                  penalty0=_direction_penalty(nu0, rho0, n_bounds=2))
-    # infeasibility is shown by the lower bound, or by the AL's certificate with the duration
-    # held at t_max (`run`)
+    rho0 = _first_convex_penalty(fixed.replace(sf=z0[-1]), grid, z0, lam0, nu0, options)
+    return requested, problem, valid, hopeless, t_lb, (z0, lam0, nu0, rho0)
+
+
+def min_time_solve(problem, grid, start, options: ALOptions):
+    """The solve's second stage: the augmented Lagrangian from `min_time_setup`'s start."""
+    z0, lam0, nu0, rho0 = start
+    return augmented_lagrangian(min_time_ocp(problem, 0.0).replace(sf=z0[-1]), grid, z0, lam0,
+                                options=options, linear_algebra=CondensedSecondOrder,
+                                penalty0=_direction_penalty(nu0, rho0, n_bounds=2))
+
+
+def min_time_solution(requested, problem, valid, hopeless, t_lb, grid, result) -> Solution:
+    """The solve's last stage: the status (infeasibility is shown by the lower bound, or by
+    the AL's certificate with the duration held at t_max, `run`) and the `Solution`."""
     al_infeasible = result.status == Status.INFEASIBLE
     shown = hopeless | (al_infeasible & (result.path_multipliers.bounds[1] > 0.0))
     status = jnp.where(shown, Status.INFEASIBLE,
                        jnp.where(al_infeasible, Status.STALLED, result.status))
     status = jnp.where(valid, status, Status.INVALID_INPUT).astype(jnp.int32)
+    ocp = min_time_ocp(problem, 0.0)
     solution = to_solution(problem, ocp, grid, result, status, valid & ~hopeless, t_lb)
     return dataclasses.replace(solution, problem=requested)
 
 
-_compiled = compiled(_min_time_transfer, static_argnames="options")
+def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
+    requested, problem, valid, hopeless, t_lb, start = min_time_setup(problem, grid, options)
+    result = min_time_solve(problem, grid, start, options)
+    return min_time_solution(requested, problem, valid, hopeless, t_lb, grid, result)
+
+
+_setup = compiled(min_time_setup, static_argnames="options")
+_solve = compiled(min_time_solve, static_argnames="options")
+_solution = compiled(min_time_solution)
+
+
+def _compiled(problem, grid, options):
+    """`_min_time_transfer` as its three stages, each compiled apart: the first solve of a
+    signature compiles them side by side (`pipelined`)."""
+    def run():
+        requested, solved, valid, hopeless, t_lb, start = _setup(problem, grid, options)
+        result = _solve(solved, grid, start, options)
+        return _solution(requested, solved, valid, hopeless, t_lb, grid, result)
+
+    return pipelined(run, _setup, problem, grid, options)
 
 
 DEFAULT_POINTS = 32
