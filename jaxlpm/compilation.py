@@ -138,9 +138,11 @@ def cache_dir() -> Path | None:
 
 
 def clear() -> None:
-    """Forget the executables held in memory (those on disk stay)."""
+    """Forget the executables held in memory and those a dry run left compiling (those on
+    disk stay)."""
     _memory.clear()
     _from_disk.clear()
+    _pending.clear()
 
 
 @functools.cache
@@ -217,7 +219,7 @@ class Compiled:
         """Whether a call with these arguments would run at once: its executable is in
         memory, or the call does not run one (traced arguments)."""
         key = self._key(*self._split(args, kwargs))
-        return key is None or key in _memory
+        return key is None or key in _memory or key in _pending
 
     def __call__(self, *args, **kwargs):
         dynamic, static = self._split(args, kwargs)
@@ -227,6 +229,8 @@ class Compiled:
         dry = _dry_run()
         if dry is not None:
             return dry.dry_call(self, key, dynamic, static)
+        if key in _pending:
+            _collect(key)
         executable = _memory.get(key)
         if executable is not None and key not in _from_disk:
             return executable(dynamic)
@@ -309,47 +313,69 @@ jax.monitoring.register_event_listener(_count_jax_cache_hit)
 
 
 class _Prefetch:
-    """A `prefetch` dry run's state: the compiles and loads submitted to the pool, by key."""
+    """A `prefetch` dry run's state: the pool its compiles and loads are submitted to."""
 
     def __init__(self, workers, log):
         self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="jaxlpm-compile")
-        self.pending, self.log, self.compiling = {}, log, 0
+        self.keys, self.log, self.compiling, self.compiled = [], log, 0, 0
+        self.lock = threading.Lock()
 
     def dry_call(self, fn, key, dynamic, static):
         """Zeros of the program's outputs; the program submitted to the pool to be loaded
-        from disk, or lowered and submitted to be compiled."""
+        from disk, or lowered and submitted to be compiled (`_pending`)."""
         known = _memory.get(key)
-        if known is None and key not in self.pending:
+        if known is None and key not in _pending:
             entry = fn._read(key)
             if entry is not None:
                 _prepare_runtime()              # on this thread, before any load
-                self.pending[key] = (fn, self.pool.submit(fn._load, key, entry),
-                                     _output_info(entry), "loaded")
+                _pending[key] = (self.pool.submit(fn._load, key, entry), _output_info(entry),
+                                 "loaded")
             else:
                 lowered, event = fn._lower(dynamic, static)
-                self.pending[key] = (fn, self.pool.submit(fn._compile, key, lowered, event),
-                                     lowered.out_info, "compiled")
+                future = self.pool.submit(fn._compile, key, lowered, event)
+                _pending[key] = (future, lowered.out_info, "compiled")
                 self.compiling += 1
                 if self.log is not None:
                     self.log(f"compiling {self.compiling}: {fn.name}")
-        info = known.out_info if known is not None else self.pending[key][2]
+                    future.add_done_callback(lambda _, name=fn.name: self._compiled(name))
+            self.keys.append(key)
+        info = known.out_info if known is not None else _pending[key][1]
         # NumPy zeros: jnp.zeros would compile a broadcast per output shape
         return jax.tree_util.tree_map(lambda a: np.zeros(a.shape, a.dtype), info)
 
-    def finish(self):
-        done = 0
-        for key, (fn, future, _, how) in self.pending.items():
-            executable = future.result()
-            if executable is None:              # an entry that would not load: a miss
-                continue
-            _memory[key] = executable
-            if how == "loaded":
-                _from_disk.add(key)             # its first real call checks it
-            else:
-                done += 1
-                if self.log is not None:
-                    self.log(f"compiled {done} of {self.compiling}: {fn.name}")
-        self.pool.shutdown()
+    def _compiled(self, name):
+        with self.lock:
+            self.compiled += 1
+            self.log(f"compiled {self.compiled} of {self.compiling}: {name}")
+
+    def finish(self, wait):
+        """Wait for every program submitted (wait), or leave them to finish in the pool's
+        threads; either way a call needing one waits for it (`_collect`)."""
+        if wait:
+            for key in self.keys:
+                _collect(key)
+        self.pool.shutdown(wait=False)
+
+
+_pending: dict = {}
+"""key -> (future, output shapes, "loaded" or "compiled"): what dry runs submitted and no
+call has collected yet (`_collect`)."""
+
+
+def _collect(key):
+    """The executable of a submitted compile or load, once done, put in memory (one loaded
+    from disk is checked by its first real call); None where it would not load (a miss) or
+    another thread collected it first."""
+    item = _pending.pop(key, None)
+    if item is None:
+        return None
+    future, _, how = item
+    executable = future.result()
+    if executable is not None:
+        _memory[key] = executable
+        if how == "loaded":
+            _from_disk.add(key)
+    return executable
 
 
 def _dry_run() -> _Prefetch | None:
@@ -358,10 +384,13 @@ def _dry_run() -> _Prefetch | None:
     return getattr(_local, "dry_run", None)
 
 
-def prefetch(run, log=None, workers: int = 2) -> int:
+def prefetch(run, log=None, workers: int = 2, wait: bool = True) -> int:
     """Compile what `run()` needs, `workers` programs at a time, by a dry run (module
-    docstring); returns the number of programs compiled. log(str): a line per program
-    submitted and per program compiled. Not reentrant: inside a prefetch, runs `run` as is."""
+    docstring); returns the number of programs submitted to compile. log(str): a line per
+    program submitted and per program compiled. wait=False returns once the dry run has
+    traced them all: the real run can start on the first ones while the others still compile
+    (a call waits for its own program). Not reentrant: inside a prefetch, runs `run` as is;
+    per thread."""
     if _dry_run() is not None:
         run()
         return 0
@@ -374,7 +403,7 @@ def prefetch(run, log=None, workers: int = 2) -> int:
                 f"as it is reached")
     finally:
         _local.dry_run = None
-        state.finish()
+        state.finish(wait)
     return state.compiling
 
 
@@ -384,7 +413,7 @@ def pipelined(run, first, *args, **kwargs):
     compiled (or loaded from disk) on a second core while the next one is traced, instead of
     one after the other (module docstring). Inside a prefetch, or traced, run() as it is."""
     if _dry_run() is None and not first.ready(*args, **kwargs):
-        prefetch(run)
+        prefetch(run, wait=False)
     return run()
 
 

@@ -189,7 +189,8 @@ def test_pipelined_solve_compiles_its_stages_once_and_matches_one_program(monkey
     monkeypatch.setenv("JAXLPM_CACHE_DIR", "")            # memory only: nothing from disk
     dry_runs = []
     prefetch = compilation.prefetch
-    monkeypatch.setattr(compilation, "prefetch", lambda run: dry_runs.append(prefetch(run)))
+    monkeypatch.setattr(compilation, "prefetch",
+                        lambda run, **kw: dry_runs.append(prefetch(run, **kw)))
     problem, grid = mei2010.problem().replace(model="two-body"), lpm.lgl(17)
     compilation.clear()
     before = len(compilation.events)

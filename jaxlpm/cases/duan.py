@@ -318,13 +318,13 @@ def figures(computed, data, out_dir):
 
 
 def reproduce(out_dir, log=print):
-    """Run the case: compute (its programs, one per grid, compiled two at a time first by a
-    dry run: `jaxlpm.compilation.prefetch`), print, draw. Returns the JSON-ready result
-    dict."""
+    """Run the case: compute (its programs, a few per grid, traced first by a dry run,
+    `jaxlpm.compilation.prefetch`, and compiled two at a time while it runs), print, draw.
+    Returns the JSON-ready result dict."""
     t = time.perf_counter()
-    n = prefetch(lambda: compute(log=lambda msg: None), log)
-    log(f"compiled or loaded the case's programs ({n} compiled) in "
-        f"{time.perf_counter() - t:.1f} s")
+    n = prefetch(lambda: compute(log=lambda msg: None), log, wait=False)
+    log(f"traced the case's programs in {time.perf_counter() - t:.1f} s; {n} compile two "
+        f"at a time while it runs (each solve waits for its own)")
     computed, data = compute(log)
     return finish(sys.modules[__name__], computed,
                   lambda out: figures(computed, data, out), out_dir, log)

@@ -294,12 +294,6 @@ def fuel_al_solution(problem, mesh: SegmentedMesh, valid, chief, first, continue
                        stats={**stats, "fuel": jnp.where(valid, stats["fuel"], 0.0)})
 
 
-def _constrained_fuel(problem, mesh: SegmentedMesh, options: FuelALOptions):
-    problem, valid, chief, first = fuel_al_setup(problem, mesh, options)
-    continued = fuel_al_continuation(problem, mesh, chief, first, options)
-    return fuel_al_solution(problem, mesh, valid, chief, first, continued, options)
-
-
 _setup = compiled(fuel_al_setup, static_argnames="options")
 _continue = compiled(fuel_al_continuation, static_argnames="options")
 _solution = compiled(fuel_al_solution, static_argnames="options")
@@ -319,7 +313,7 @@ def constrained_fuel_optimal(problem, mesh: SegmentedMesh, options: FuelALOption
     m/s, path_violation: the delta-v beyond the bound, m/s).
 
     Compiled as its three stages (`fuel_al_setup`, `fuel_al_continuation`,
-    `fuel_al_solution`): the first solve of a signature compiles them side by side
+    `fuel_al_solution`), each apart: the first solve of a signature compiles them side by side
     (`pipelined`)."""
     def run():
         problem_s, valid, chief, first = _setup(problem, mesh, options)

@@ -206,20 +206,15 @@ def min_time_solution(requested, problem, valid, hopeless, t_lb, grid, result) -
     return dataclasses.replace(solution, problem=requested)
 
 
-def _min_time_transfer(problem, grid, options: ALOptions) -> Solution:
-    requested, problem, valid, hopeless, t_lb, start = min_time_setup(problem, grid, options)
-    result = min_time_solve(problem, grid, start, options)
-    return min_time_solution(requested, problem, valid, hopeless, t_lb, grid, result)
-
-
 _setup = compiled(min_time_setup, static_argnames="options")
 _solve = compiled(min_time_solve, static_argnames="options")
 _solution = compiled(min_time_solution)
 
 
 def _compiled(problem, grid, options):
-    """`_min_time_transfer` as its three stages, each compiled apart: the first solve of a
-    signature compiles them side by side (`pipelined`)."""
+    """The minimum-time transfer as its three stages (`min_time_setup`, `min_time_solve`,
+    `min_time_solution`), each compiled apart: the first solve of a signature compiles them
+    side by side (`pipelined`)."""
     def run():
         requested, solved, valid, hopeless, t_lb, start = _setup(problem, grid, options)
         result = _solve(solved, grid, start, options)
