@@ -172,10 +172,13 @@ def _cpu_flags() -> str:
 
 
 def _aval(leaf):
-    """A leaf's shape and dtype for the key. Weak types are left out: an executable runs on
-    a weakly or strongly typed leaf of its dtype alike, and a program's outputs come back
-    weak where it computed them from Python scalars, which a `prefetch` dry run (zeros of
-    the output shapes) cannot tell."""
+    """A leaf's shape and dtype for the key, "float64[65,3]". Weak types are left out: an
+    executable runs on a weakly or strongly typed leaf of its dtype alike, and a program's
+    outputs come back weak where it computed them from Python scalars, which a `prefetch`
+    dry run (zeros of the output shapes) cannot tell. Arrays by their attributes (a tenth of
+    the time of formatting `jax.typeof`: a staged solve's keys have about a hundred leaves)."""
+    if isinstance(leaf, (jax.Array, np.ndarray, np.generic)):
+        return f"{leaf.dtype.name}[{','.join(map(str, leaf.shape))}]"
     return str(jax.typeof(leaf)).lstrip("~")
 
 
