@@ -48,9 +48,10 @@ run in which every compiled function is traced and lowered (on the calling threa
 the GIL) and handed to a pool of threads to compile (XLA releases the GIL), or, when it is on
 disk, handed to the pool to be loaded; its call is answered with zeros of the program's
 output shapes (an entry on disk records them) instead of being run; then it waits for the
-pool. The real run that follows finds every program in memory. Tracing the next program
-overlaps the compiling or loading of the last ones, and two compile or load at once on two
-cores. A dry run must not depend on the values it computes (a loop until convergence would
+pool, or with wait=False returns at once, and each call of the real run that follows waits
+for its own program only (so the first solves run while the later programs compile).
+Tracing the next program overlaps the compiling or loading of the last ones, and two compile
+or load at once on two cores. A dry run is per thread. A dry run must not depend on the values it computes (a loop until convergence would
 not end on zeros): it is for fixed sequences of solves such as a reproduction's (`jaxlpm
 reproduce`); an exception in it ends the dry run early, and the real run compiles what is
 left as usual.
@@ -60,8 +61,8 @@ as a few programs each (a Newton-KKT transfer: its setup and warm start, its New
 augmented-Lagrangian iterations, its solution and error estimate), and the first solve of a
 signature (its first program not in memory) compiles them by a prefetch dry run, so that one
 compiles on the second core while the next is traced. mei2010's first Newton-KKT transfer
-(two-body, lgl(65)): 5.5 s as one program, 4.0 s as three (bench_compile.py, BENCHMARKS.md
-"Cold start", 2026-12-06, seventh session).
+(two-body, lgl(65)): 6.0-8.3 s as one program, 4.2-5.5 s as three on a noisy 2-core VM
+(bench_compile.py, BENCHMARKS.md "Cold start", 2026-12-06, seventh session).
 
 The folder is JAXLPM_CACHE_DIR (default ~/.cache/jaxlpm/jax, the CLI's compilation cache);
 JAXLPM_CACHE_DIR="" turns the disk cache off. `clear()` empties the memory cache (the test
