@@ -51,10 +51,10 @@ output shapes (an entry on disk records them) instead of being run; then it wait
 pool, or with wait=False returns at once, and each call of the real run that follows waits
 for its own program only (so the first solves run while the later programs compile).
 Tracing the next program overlaps the compiling or loading of the last ones, and two compile
-or load at once on two cores. A dry run is per thread. A dry run must not depend on the values it computes (a loop until convergence would
-not end on zeros): it is for fixed sequences of solves such as a reproduction's (`jaxlpm
-reproduce`); an exception in it ends the dry run early, and the real run compiles what is
-left as usual.
+or load at once on two cores. A dry run is per thread, and must not depend on the values it
+computes (a loop until convergence would not end on zeros): it is for fixed sequences of
+solves such as a reproduction's (`jaxlpm reproduce`); an exception in it ends the dry run
+early, and the real run compiles what is left as usual.
 
 `pipelined(run, first, *args)` is the same for one solve: the families' solvers are compiled
 as a few programs each (a Newton-KKT transfer: its setup and warm start, its Newton-KKT or

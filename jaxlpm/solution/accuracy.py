@@ -117,16 +117,14 @@ def judge(solution, tolerance: Tolerance):
     is)."""
     if "error_position" not in solution.stats:
         return solution
+    status = solution.status
     stats = {k: v for k, v in solution.stats.items() if k in _JUDGED}
-    if is_concrete(solution.status, stats):
-        # on the host: jnp on concrete arrays would compile a small program per operation
-        status, stats = np.asarray(solution.status), jax.tree_util.tree_map(np.asarray, stats)
-        return solution.replace(status=jnp.asarray(np.where(
-            (status == Status.SUCCESS) & inaccurate(stats, tolerance), Status.INACCURATE,
-            status).astype(np.int32)))
-    status = jnp.where((solution.status == Status.SUCCESS) & inaccurate(stats, tolerance),
-                       Status.INACCURATE, solution.status).astype(jnp.int32)
-    return solution.replace(status=status)
+    xp = np if is_concrete(status, stats) else jnp
+    if xp is np:     # on the host: jnp on concrete arrays compiles a program per operation
+        status, stats = np.asarray(status), jax.tree_util.tree_map(np.asarray, stats)
+    status = xp.where((status == Status.SUCCESS) & inaccurate(stats, tolerance),
+                      Status.INACCURATE, status).astype(xp.int32)
+    return solution.replace(status=jnp.asarray(status))
 
 
 _JUDGED = ("error_position", "error_velocity", "path_violation", "violation_position",

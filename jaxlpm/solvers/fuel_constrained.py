@@ -224,40 +224,41 @@ def unpack_kkt(w, res):
 
 def fuel_al_setup(problem, mesh: SegmentedMesh, options: FuelALOptions):
     """The solve's first stage: (the problem with invalid values replaced, whether it was
-    valid, the chief (`chief_rows`), the energy-optimal start: an `ALResult` of the same
-    transcription)."""
+    valid, the chief at the state rows (`chief_rows`), the energy-optimal start: an
+    `ALResult` of the same transcription)."""
     valid = problem.validity()
     problem = problem.sanitized(valid)
     grid = tau_mesh(mesh)
-    chief = chief_rows(problem, grid)
-    _, energy_ocp, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *chief))
+    rows = chief_rows(problem, grid)
+    _, energy_ocp, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *rows))
     z0, _ = linear_warm_start(energy.replace(constraints=()), energy_ocp, grid)
     first = augmented_lagrangian(energy_ocp, grid, z0, options=_al(options, mesh),
                                  linear_algebra=auto_linear_algebra(energy, grid))
-    return problem, valid, chief, first
+    return problem, valid, rows, first
 
 
 def _al(options: FuelALOptions, mesh):
+    """The augmented Lagrangian's options on the mesh's segments (`rung_options`)."""
     return rung_options(options.al, mesh.n_segments)
 
 
-def fuel_al_continuation(problem, mesh: SegmentedMesh, chief, first,
+def fuel_al_continuation(problem, mesh: SegmentedMesh, rows, first,
                          options: FuelALOptions):
     """The solve's second stage: `_continuation` from `fuel_al_setup`'s start."""
     grid = tau_mesh(mesh)
-    ocp, _, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *chief))
+    ocp, _, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *rows))
     return jax.lax.stop_gradient(_continuation(
         ocp, grid, first, options, _al(options, mesh), delta_v_unit(problem),
         auto_linear_algebra(energy, grid)))
 
 
-def fuel_al_solution(problem, mesh: SegmentedMesh, valid, chief, first, continued,
+def fuel_al_solution(problem, mesh: SegmentedMesh, valid, rows, first, continued,
                      options: FuelALOptions) -> Solution:
     """The solve's last stage: the KKT point at the last eps (differentiable), its stats
     and the `Solution`."""
     res, (statuses, dvs, outer, inner) = continued
     grid = tau_mesh(mesh)
-    ocp, energy_ocp, chief, ok, energy = constrained_ocp(problem, grid, *chief)
+    ocp, energy_ocp, chief, ok, energy = constrained_ocp(problem, grid, *rows)
     unit = delta_v_unit(problem)
     final = _at(ocp, options.eps[-1], options)
     w = _at_kkt_point(stack_kkt_point(res), final, grid)
@@ -316,9 +317,9 @@ def constrained_fuel_optimal(problem, mesh: SegmentedMesh, options: FuelALOption
     `fuel_al_solution`), each apart: the first solve of a signature compiles them side by side
     (`pipelined`)."""
     def run():
-        problem_s, valid, chief, first = _setup(problem, mesh, options)
-        continued = _continue(problem_s, mesh, chief, first, options)
-        return _solution(problem_s, mesh, valid, chief, first, continued, options)
+        problem_s, valid, rows, first = _setup(problem, mesh, options)
+        continued = _continue(problem_s, mesh, rows, first, options)
+        return _solution(problem_s, mesh, valid, rows, first, continued, options)
 
     return pipelined(run, _setup, problem, mesh, options)
 
