@@ -192,12 +192,15 @@ def newton_step(ocp, grid, z, linear_algebra=DenseKKT):
 
 class NewtonReport(NamedTuple):
     """What a Newton loop reports beside its solution: `Status` code, iterations taken, KKT
-    residual history (one entry per iteration, zeros after) and the largest regularisation."""
+    residual history (one entry per iteration, zeros after), the largest regularisation, and
+    max |c| and max |grad_z L| at the solution returned (NaN where it is not finite)."""
 
     status: jax.Array
     iterations: jax.Array
     history: jax.Array
     regularisation: jax.Array
+    constraint_residual: jax.Array
+    stationarity_residual: jax.Array
 
 
 class _RegularisedStep(NamedTuple):
@@ -208,10 +211,12 @@ class _RegularisedStep(NamedTuple):
     attempt: jax.Array
 
 
-class _Backtrack(NamedTuple):
+class _Trial(NamedTuple):
+    trial: jax.Array             # the next candidate (`line_search`)
+    step: jax.Array
     alpha: jax.Array
-    merit: jax.Array
-    halvings: jax.Array
+    accepted: jax.Array
+    c_full: jax.Array            # c(z + p), for the second-order correction
 
 
 class _NewtonState(NamedTuple):
@@ -222,6 +227,7 @@ class _NewtonState(NamedTuple):
     history: jax.Array
     regularisation: jax.Array    # largest dw so far
     dw_last: jax.Array
+    residuals: jax.Array         # (max |c|, max |grad L|) at the last point checked
     status: jax.Array            # _RUNNING until done
 
 
@@ -237,13 +243,15 @@ def newton_iterations(w0, ocp, grid, options: NewtonOptions, linear_algebra=Dens
     la = linear_algebra(ocp, grid, z0)
 
     def merit(z, mu):
-        return f(z) + mu * jnp.sum(jnp.abs(c_fun(z)))
+        """(f(z) + mu |c(z)|_1, c(z))."""
+        c = c_fun(z)
+        return f(z) + mu * jnp.sum(jnp.abs(c)), c
 
     def residuals(z, lam):
-        g = jax.grad(f)(z)
+        f0, g = jax.value_and_grad(f)(z)
         c, c_vjp = jax.vjp(c_fun, z)
         gl = g + c_vjp(lam)[0]
-        return g, c, jnp.max(jnp.abs(c)), jnp.max(jnp.abs(gl))
+        return f0, g, c, jnp.max(jnp.abs(c)), jnp.max(jnp.abs(gl))
 
     def regularised_step(prep, H, g, c, dw_last):
         """dw = 0 first; while the backend's solve is not ok (non-finite, wrong inertia,
@@ -267,52 +275,50 @@ def newton_iterations(w0, ocp, grid, options: NewtonOptions, linear_algebra=Dens
                                          jnp.zeros((), g.dtype), jnp.array(False), 0))
         return s.step, s.multipliers, s.dw, s.ok
 
-    def line_search(z, lam, g, c, kkt, prep, p, mu):
+    def line_search(z, lam, f0, g, c, kkt, prep, p, mu):
         """(step, alpha, accepted): the full step if the merit accepts it or it halves the
         KKT residual (a condensed step meets its linearised constraints only to ~1e-12, so near
         a solution the merit's l1 term can reject it while it brings the stationarity down
         by three decades), else its second-order correction (Nocedal & Wright Alg. 18.3 /
         §15.5: p_soc = p + d with A d = -c(z + p) removes the constraints' curvature that makes
         the merit reject good Newton steps near a solution, the Maratos effect), also taken
-        when it halves the KKT residual, else Armijo backtracking along p."""
-        phi0 = merit(z, mu)
+        when it halves the KKT residual, else Armijo backtracking along p. The candidates are
+        tried in turn by one loop (trial j: 0 the full step, 1 its correction, j >= 2 the
+        step 2^(1-j) p), so that the program holds one merit and one KKT residual
+        evaluation (issue 21: a smaller program compiles sooner)."""
+        phi0 = f0 + mu * jnp.sum(jnp.abs(c))
         slope = g @ p - mu * jnp.sum(jnp.abs(c))
 
-        def sufficient(phi, alpha):
-            return phi <= phi0 + opts.armijo * alpha * slope
+        def kkt_halved(step):
+            w = jnp.concatenate([z + step, lam])
+            return jnp.max(jnp.abs(kkt_residual(w, ocp, grid))) <= 0.5 * kkt
 
-        phi_full = merit(z + p, mu)
-        full = sufficient(phi_full, 1.0)
+        def cond(t):
+            return ~t.accepted & (t.trial <= opts.max_backtracks + 1)
 
-        def kkt_after(step):
-            return jnp.max(jnp.abs(kkt_residual(jnp.concatenate([z + step, lam]), ocp, grid)))
+        def body(t):
+            j = t.trial
+            alpha = jnp.where(j <= 1, 1.0, 0.5 ** (j - 1).astype(z.dtype))
+            # the correction from c(z + p), which trial 0 left in t.c_full
+            step = jax.lax.cond(j == 1, lambda: p + la.correction(prep, t.c_full),
+                                lambda: alpha * p)
+            phi, c_trial = merit(z + step, mu)
+            sufficient = phi <= phi0 + opts.armijo * alpha * slope
+            halved = jax.lax.cond((j <= 1) & ~sufficient, kkt_halved, lambda _: False, step)
+            return _Trial(j + 1, step, alpha, sufficient | halved,
+                          jnp.where(j == 0, c_trial, t.c_full))
 
-        def corrected(_):
-            halves = kkt_after(p) <= 0.5 * kkt
-            p_soc = p + la.correction(prep, c_fun(z + p))
-            soc = sufficient(merit(z + p_soc, mu), 1.0) | (kkt_after(p_soc) <= 0.5 * kkt)
-            return jnp.where(halves, p, p_soc), halves | soc
+        t = jax.lax.while_loop(cond, body, _Trial(0, jnp.zeros_like(p), jnp.zeros((), z.dtype),
+                                                  jnp.array(False), jnp.zeros_like(c)))
+        return t.step, t.alpha, t.accepted
 
-        p_soc, use_soc = jax.lax.cond(full, lambda _: (p, jnp.array(False)), corrected, None)
-
-        def ls_cond(t):
-            return ~sufficient(t.merit, t.alpha) & ~use_soc & (t.halvings < opts.max_backtracks)
-
-        def ls_body(t):
-            alpha = 0.5 * t.alpha
-            return _Backtrack(alpha, merit(z + alpha * p, mu), t.halvings + 1)
-
-        alpha, phi, _ = jax.lax.while_loop(ls_cond, ls_body, _Backtrack(1.0, phi_full, 0))
-        accepted = use_soc | sufficient(phi, alpha)
-        return jnp.where(use_soc, p_soc, alpha * p), jnp.where(use_soc, 1.0, alpha), accepted
-
-    def newton_iteration(z, lam, mu, g, c, kkt, dw_last):
+    def newton_iteration(z, lam, mu, f0, g, c, kkt, dw_last):
         """One regularised Newton-KKT step with its line search: (z, lambda, mu, dw, status)."""
         prep = la.prepare(z, lam)
         p, lam_new, dw, ok = regularised_step(prep, la.hessian(prep, z, lam), g, c, dw_last)
         mu = jnp.maximum(mu, 1.5 * jnp.max(jnp.abs(lam_new)) + 1e-12)
         step, alpha, accepted = jax.lax.cond(
-            ok, lambda _: line_search(z, lam_new, g, c, kkt, prep, p, mu),
+            ok, lambda _: line_search(z, lam_new, f0, g, c, kkt, prep, p, mu),
             lambda _: (jnp.zeros_like(z), jnp.zeros((), z.dtype), jnp.array(False)), None)
         moved = ok & accepted
         z_next = jnp.where(moved, z + step, z)
@@ -324,7 +330,7 @@ def newton_iterations(w0, ocp, grid, options: NewtonOptions, linear_algebra=Dens
 
     def body(s):
         z, lam, mu, k, hist = s.z, s.lam, s.mu, s.k, s.history
-        g, c, feas, opt = residuals(z, lam)
+        f0, g, c, feas, opt = residuals(z, lam)
         kkt = jnp.maximum(feas, opt)
         hist = hist.at[k].set(kkt)
         converged = (feas <= opts.tol_feasibility) & (opt <= opts.tol_optimality)
@@ -344,17 +350,21 @@ def newton_iterations(w0, ocp, grid, options: NewtonOptions, linear_algebra=Dens
                            Status.STALLED).astype(jnp.int32)
         z, lam, mu, dw, status = jax.lax.cond(
             done, lambda _: (z, lam, mu, jnp.zeros((), z.dtype), final),
-            lambda _: newton_iteration(z, lam, mu, g, c, kkt, s.dw_last), None)
+            lambda _: newton_iteration(z, lam, mu, f0, g, c, kkt, s.dw_last), None)
         k_next = jnp.where(done, k, k + 1)
+        # the loop ends at a point it checked (converged, out of budget, or a step refused:
+        # z and lambda stay) or at a non-finite one
+        res = jnp.where(status == Status.NONFINITE, jnp.nan, jnp.stack([feas, opt]))
         return _NewtonState(z, lam, mu, k_next, hist, jnp.maximum(s.regularisation, dw), dw,
-                            status)
+                            res, status)
 
     hist0 = jnp.zeros(opts.max_iterations + 1, z0.dtype)
     zero = jnp.zeros((), z0.dtype)
-    state = _NewtonState(z0, lam0, zero, 0, hist0, zero, zero, jnp.asarray(_RUNNING, jnp.int32))
+    state = _NewtonState(z0, lam0, zero, 0, hist0, zero, zero, jnp.zeros(2, z0.dtype),
+                         jnp.asarray(_RUNNING, jnp.int32))
     s = jax.lax.while_loop(lambda s: s.status == _RUNNING, body, state)
     return jnp.concatenate([s.z, s.lam]), NewtonReport(s.status, s.k, s.history,
-                                                       s.regularisation)
+                                                       s.regularisation, *s.residuals)
 
 
 class _ContinuationState(NamedTuple):
@@ -411,7 +421,7 @@ def continuation(loop, w0, ocp, grid, options: NewtonOptions, homotopy):
 
     report0 = NewtonReport(jnp.asarray(_RUNNING, jnp.int32), jnp.zeros((), jnp.int32),
                            jnp.zeros(options.max_iterations + 1, w0.dtype),
-                           jnp.zeros((), w0.dtype))
+                           *jnp.zeros((3,), w0.dtype))
     zero = 0.0 * one
     state = _ContinuationState(w0, one, zero, w0, zero, w0, 0, jnp.zeros((), jnp.int32), w0,
                                report0, jnp.array(False))
@@ -466,9 +476,8 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
         multipliers0 = linear_algebra(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
     w, report = _solver(options, homotopy, linear_algebra)(
         jnp.concatenate([z0, multipliers0]), ocp, grid)
-    z, lam = w[:n], w[n:]
-    res = kkt_residual(jax.lax.stop_gradient(w), ocp, grid)
-    return NLPResult(z=z, multipliers=lam, status=report.status, iterations=report.iterations,
-                     constraint_residual=jnp.max(jnp.abs(res[n:])),
-                     stationarity_residual=jnp.max(jnp.abs(res[:n])),
+    return NLPResult(z=w[:n], multipliers=w[n:], status=report.status,
+                     iterations=report.iterations,
+                     constraint_residual=report.constraint_residual,
+                     stationarity_residual=report.stationarity_residual,
                      history=report.history, regularisation=report.regularisation)

@@ -58,7 +58,7 @@ _LAWS = {"stm": compiled(stm_law),
          "kkt": compiled(kkt_law, static_argnames=("estimate", "multipliers"))}
 
 
-_setup = compiled(transfer_setup, static_argnames="warm_start")
+_setup = compiled(transfer_setup, static_argnames=("warm_start", "linear_algebra"))
 _solve = compiled(transfer_solve, static_argnames=("options", "linear_algebra"))
 _solution = compiled(transfer_solution)
 

@@ -20,7 +20,9 @@ transfer with the same constraints and bound (the augmented Lagrangian from the 
 warm start, with the continuation's `FuelALOptions.al`), whose solution, its multipliers scaled by
 `energy_to_fuel_scale`, starts eps = 1 (the same problem up to that scale); then eps runs over a
 fixed schedule down to `FuelALOptions.eps[-1]`, each solve warm-started from the previous one
-(its decision vector, multipliers and penalty), in one `lax.scan` (jit, vmap). Started from the
+(its decision vector, multipliers and penalty). All of it is one `lax.scan` (jit, vmap): the
+energy-optimal transfer is the eps = 1 problem with its cost scaled by 1 / that scale, up to a
+constant (`SmoothedDeltaV`), so one augmented Lagrangian serves every step. Started from the
 linear model's warm start instead, the eps = 1 problem ended INFEASIBLE on the J2 approach of
 `jaxlpm.cases.approach` (the penalty at its cap with the abort-safety drift still inside the
 sphere), though the energy-optimal solution is feasible there.
@@ -47,7 +49,7 @@ from ..compilation import compiled, pipelined
 from ..collocation.segments import SegmentedMesh, tau_mesh
 from ..implicit import root
 from ..nlp.augmented_lagrangian import (ALOptions, al_kkt_residual, augmented_lagrangian,
-                                        stack_kkt_point)
+                                        stack_kkt_point, start_penalty)
 from ..nlp.homotopy import smoothed_cost
 from ..nlp.newton import NewtonOptions, NLPResult
 from ..nlp.ocp import PathPenalty
@@ -113,15 +115,19 @@ def time_rate(model, s, data, p):
 
 @dataclass(frozen=True)
 class SmoothedDeltaV:
-    """The running cost r u_max l_eps(Gamma) (module docstring) of `model`, eps and delta in
-    the params (hashable: one compiled solver per model)."""
+    """The running cost k r u_max l_eps(Gamma) (module docstring) of `model`, eps, delta and
+    the scale k in the params (hashable: one compiled solver per model). k = 1 but for the
+    energy-optimal start: at eps = 1, l_1(w) = w^2 and k = 1 / `energy_to_fuel_scale` make
+    it the energy-optimal transfer's running cost plus a constant (the smoothing's delta^2
+    term)."""
 
     model: str
 
     def __call__(self, s, x, u, data, p):
         umax = p["umax"]
         w = jnp.sqrt(jnp.dot(u, u) / umax ** 2 + p["delta"] ** 2)
-        return time_rate(self.model, s, data, p) * umax * smoothed_cost(w, p["eps"])
+        return p["scale"] * time_rate(self.model, s, data, p) * umax * smoothed_cost(
+            w, p["eps"])
 
 
 @dataclass(frozen=True)
@@ -147,7 +153,7 @@ def constrained_ocp(problem: FuelOptimalTransfer, grid, s_f=None, chief=None):
     zero = jnp.zeros_like(umax)
     ocp = energy_ocp.replace(running_cost=OnModelData(SmoothedDeltaV(problem.model)),
                              params={**energy_ocp.params, "umax": umax, "eps": 1.0 + zero,
-                                     "delta": zero})
+                                     "delta": zero, "scale": 1.0 + zero})
     return ocp, energy_ocp, chief, ok, energy
 
 
@@ -174,11 +180,11 @@ def energy_to_fuel_scale(model, p):
     return c * (1.0 - p["e"] ** 2) ** 1.5 if model == "linear" else c
 
 
-def _at(ocp, eps, options):
-    """`ocp` at the continuation's eps, with the options' smoothing."""
+def _at(ocp, eps, delta, scale=1.0):
+    """`ocp` at the continuation's eps, smoothing delta and scale (`SmoothedDeltaV`)."""
     zero = 0.0 * ocp.params["eps"]
-    return ocp.replace(params={**ocp.params, "eps": eps + zero,
-                               "delta": options.smoothing + zero})
+    return ocp.replace(params={**ocp.params, "eps": eps + zero, "delta": delta + zero,
+                               "scale": scale + zero})
 
 
 def delta_v(z, ocp, grid, unit):
@@ -193,27 +199,38 @@ def _at_kkt_point(w, ocp, grid):
     return w
 
 
-def _continuation(ocp, grid, energy, options: FuelALOptions, al: ALOptions, unit,
+def _continuation(ocp, grid, z0, multipliers0, options: FuelALOptions, al: ALOptions, unit,
                   linear_algebra):
-    """The augmented Lagrangian at every eps of the schedule, warm-started in turn from the
-    energy-optimal solution `energy` (an `ALResult` of the same transcription, its
-    multipliers scaled by `energy_to_fuel_scale`): the final `ALResult`, and per eps its
-    status, delta-v (m/s) and iterations."""
+    """The augmented Lagrangian from z0 (and its equality multipliers) at the energy-optimal
+    start, then at every eps of the schedule, each warm-started from the last (its decision
+    vector, multipliers and penalty; the energy solution's multipliers scaled by
+    `energy_to_fuel_scale` c), in one `lax.scan`. The energy-optimal start is the problem at
+    eps = 1 with its cost scaled by 1/c (`SmoothedDeltaV`): one augmented Lagrangian in the
+    program for both (issue 21: it compiles in a third of the time). Returns the energy-optimal
+    start's `ALResult`, the last eps's, and per eps its status, delta-v (m/s) and
+    iterations."""
     c = energy_to_fuel_scale(ocp.running_cost.fn.model, ocp.params)
-    pm = energy.path_multipliers
-    start = (energy.z, c * energy.multipliers,
-             PathPenalty(c * pm.inequality, c * pm.equality, c * pm.bounds, c * pm.rho))
+    one = jnp.ones(1, z0.dtype)
+    eps = jnp.concatenate([one, jnp.asarray(options.eps, z0.dtype)])
+    scale = jnp.concatenate([one / c, jnp.ones(len(options.eps), z0.dtype)])
+    factor = jnp.concatenate([one * c, jnp.ones(len(options.eps), z0.dtype)])
 
-    def step(carry, eps):
+    def step(carry, x):
         z, lam, pen = carry
-        res = augmented_lagrangian(_at(ocp, eps, options), grid, z, lam, al,
+        e, k, f = x
+        res = augmented_lagrangian(_at(ocp, e, options.smoothing, k), grid, z, lam, al,
                                    linear_algebra=linear_algebra, penalty0=pen)
         out = (res.status, delta_v(res.z, ocp, grid, unit), res.outer_iterations,
                res.inner_iterations)
-        return (res.z, res.multipliers, res.path_multipliers), (res, out)
+        pm = res.path_multipliers
+        # after the energy-optimal start, the multipliers of the fuel problem (f = c)
+        pen = PathPenalty(f * pm.inequality, f * pm.equality, f * pm.bounds, f * pm.rho)
+        return (res.z, f * res.multipliers, pen), (res, out)
 
-    _, (steps, outs) = jax.lax.scan(step, start, jnp.asarray(options.eps, energy.z.dtype))
-    return jax.tree_util.tree_map(lambda x: x[-1], steps), outs
+    start = (z0, multipliers0, start_penalty(ocp, grid, al.rho0, z0.dtype))
+    _, (steps, outs) = jax.lax.scan(step, start, (eps, scale, factor))
+    first, last = (jax.tree_util.tree_map(lambda x: x[i], steps) for i in (0, -1))
+    return first, last, jax.tree_util.tree_map(lambda x: x[1:], outs)
 
 
 def unpack_kkt(w, res):
@@ -224,17 +241,16 @@ def unpack_kkt(w, res):
 
 def fuel_al_setup(problem, mesh: SegmentedMesh, options: FuelALOptions):
     """The solve's first stage: (the problem with invalid values replaced, whether it was
-    valid, the chief at the state rows (`chief_rows`), the energy-optimal start: an
-    `ALResult` of the same transcription)."""
+    valid, the chief at the state rows (`chief_rows`), the start of the energy-optimal
+    transfer: the linear model's warm start z0 and its first equality multipliers)."""
     valid = problem.validity()
     problem = problem.sanitized(valid)
     grid = tau_mesh(mesh)
     rows = chief_rows(problem, grid)
     _, energy_ocp, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *rows))
     z0, _ = linear_warm_start(energy.replace(constraints=()), energy_ocp, grid)
-    first = augmented_lagrangian(energy_ocp, grid, z0, options=_al(options, mesh),
-                                 linear_algebra=auto_linear_algebra(energy, grid))
-    return problem, valid, rows, first
+    la = auto_linear_algebra(energy, grid)
+    return problem, valid, rows, (z0, la(energy_ocp, grid, z0).first_multipliers(z0))
 
 
 def _al(options: FuelALOptions, mesh):
@@ -242,25 +258,25 @@ def _al(options: FuelALOptions, mesh):
     return rung_options(options.al, mesh.n_segments)
 
 
-def fuel_al_continuation(problem, mesh: SegmentedMesh, rows, first,
+def fuel_al_continuation(problem, mesh: SegmentedMesh, rows, start,
                          options: FuelALOptions):
     """The solve's second stage: `_continuation` from `fuel_al_setup`'s start."""
     grid = tau_mesh(mesh)
     ocp, _, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *rows))
     return jax.lax.stop_gradient(_continuation(
-        ocp, grid, first, options, _al(options, mesh), delta_v_unit(problem),
+        ocp, grid, *start, options, _al(options, mesh), delta_v_unit(problem),
         auto_linear_algebra(energy, grid)))
 
 
-def fuel_al_solution(problem, mesh: SegmentedMesh, valid, rows, first, continued,
+def fuel_al_solution(problem, mesh: SegmentedMesh, valid, rows, continued,
                      options: FuelALOptions) -> Solution:
     """The solve's last stage: the KKT point at the last eps (differentiable), its stats
     and the `Solution`."""
-    res, (statuses, dvs, outer, inner) = continued
+    first, res, (statuses, dvs, outer, inner) = continued
     grid = tau_mesh(mesh)
     ocp, energy_ocp, chief, ok, energy = constrained_ocp(problem, grid, *rows)
     unit = delta_v_unit(problem)
-    final = _at(ocp, options.eps[-1], options)
+    final = _at(ocp, options.eps[-1], options.smoothing)
     w = _at_kkt_point(stack_kkt_point(res), final, grid)
     z, lam = unpack_kkt(w, res)
     status = jnp.where(valid, jnp.where(ok, res.status, Status.NONFINITE),
@@ -317,9 +333,9 @@ def constrained_fuel_optimal(problem, mesh: SegmentedMesh, options: FuelALOption
     `fuel_al_solution`), each apart: the first solve of a signature compiles them side by side
     (`pipelined`)."""
     def run():
-        problem_s, valid, rows, first = _setup(problem, mesh, options)
-        continued = _continue(problem_s, mesh, rows, first, options)
-        return _solution(problem_s, mesh, valid, rows, first, continued, options)
+        problem_s, valid, rows, start = _setup(problem, mesh, options)
+        continued = _continue(problem_s, mesh, rows, start, options)
+        return _solution(problem_s, mesh, valid, rows, continued, options)
 
     return pipelined(run, _setup, problem, mesh, options)
 

@@ -126,7 +126,7 @@ def newton_transfer(problem, grid, options: NewtonOptions | ALOptions = NewtonOp
     side by side (`jaxlpm.compilation.pipelined`).
     """
     check_transfer(problem, grid, options, linear_algebra)
-    setup = transfer_setup(problem, grid, warm_start, z0)
+    setup = transfer_setup(problem, grid, warm_start, z0, linear_algebra)
     return transfer_solution(setup, grid, *transfer_solve(setup, grid, options, linear_algebra))
 
 
@@ -150,7 +150,9 @@ class TransferSetup(NamedTuple):
     """What `transfer_setup` hands the solve: the problem with invalid values replaced
     (`sanitized`) and whether it was valid, the final anomaly s_f (rad), the chief at the
     grid's and at the check mesh's state rows (`transfer_chief`), the initial guess z0 (the
-    solver's scaled unknowns) and whether the linear model found the target unreachable."""
+    solver's scaled unknowns) with the first estimate of its equality multipliers (the linear
+    algebra's `first_multipliers`), and whether the linear model found the target
+    unreachable."""
 
     problem: EnergyOptimalTransfer
     valid: jax.Array
@@ -158,12 +160,22 @@ class TransferSetup(NamedTuple):
     rows_chief: tuple
     check_chief: tuple
     z0: jax.Array
+    multipliers0: jax.Array
     linear_singular: jax.Array
 
 
-def transfer_setup(problem, grid, warm_start: bool = True, z0=None) -> TransferSetup:
-    """`newton_transfer`'s first stage: validity, the chief, and the initial guess (z0 as
-    given, else the linear model's warm start, else zeros)."""
+def _linear_algebra(problem, grid, linear_algebra):
+    """The class that solves the transfer's Newton-KKT systems (`check_transfer`'s names)."""
+    if linear_algebra == "auto":
+        return auto_linear_algebra(problem, grid)
+    return condensed_linear_algebra if linear_algebra == "condensed" else DenseKKT
+
+
+def transfer_setup(problem, grid, warm_start: bool = True, z0=None,
+                   linear_algebra: str = "auto") -> TransferSetup:
+    """`newton_transfer`'s first stage: validity, the chief, the initial guess (z0 as
+    given, else the linear model's warm start, else zeros) and its first multipliers (here,
+    not in the iterations' program: that one, the largest, compiles sooner)."""
     valid = problem.validity()
     problem = problem.sanitized(valid)
     s_f, rows_chief, check_chief = transfer_chief(problem, grid)
@@ -177,7 +189,11 @@ def transfer_setup(problem, grid, warm_start: bool = True, z0=None) -> TransferS
         n_rows = state_tau(grid).shape[0]
         z0 = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp.sf, ocp)
         linear_singular = jnp.array(False)
-    return TransferSetup(problem, valid, s_f, rows_chief, check_chief, z0, linear_singular)
+    fixed = jax.lax.stop_gradient((ocp, z0))          # a starting point: not differentiated
+    la = _linear_algebra(problem, grid, linear_algebra)
+    multipliers0 = la(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
+    return TransferSetup(problem, valid, s_f, rows_chief, check_chief, z0, multipliers0,
+                         linear_singular)
 
 
 def transfer_solve(setup: TransferSetup, grid, options, linear_algebra: str = "auto"):
@@ -186,13 +202,13 @@ def transfer_solve(setup: TransferSetup, grid, options, linear_algebra: str = "a
     setup.z0."""
     problem = setup.problem
     ocp, _, _ = transfer_ocp(problem, grid, setup.s_f, setup.rows_chief)
-    la = (auto_linear_algebra(problem, grid) if linear_algebra == "auto"
-          else condensed_linear_algebra if linear_algebra == "condensed" else DenseKKT)
+    la = _linear_algebra(problem, grid, linear_algebra)
     if not problem.constraints:
         homotopy = None if problem.model == "linear" else separation_homotopy
-        return newton_kkt(ocp, grid, setup.z0, options=options, homotopy=homotopy,
-                          linear_algebra=la), None
-    al = augmented_lagrangian(ocp, grid, setup.z0, options=options, linear_algebra=la)
+        return newton_kkt(ocp, grid, setup.z0, setup.multipliers0, options=options,
+                          homotopy=homotopy, linear_algebra=la), None
+    al = augmented_lagrangian(ocp, grid, setup.z0, setup.multipliers0, options=options,
+                              linear_algebra=la)
     result = NLPResult(z=al.z, multipliers=al.multipliers, status=al.status,
                        iterations=al.inner_iterations,
                        constraint_residual=al.constraint_residual,
