@@ -322,7 +322,8 @@ class Transcription:
     """The problem on a mesh (built once per solve, not a pytree): the energy-optimal
     transfer's `OptimalControlProblem` `ocp` on the `LGRMesh` or `LGMesh` `grid` (the same
     mesh in tau), its chief samples `chief` at the state rows, and the chief integration's
-    flag `ok`."""
+    flag `ok`; s_f and check_chief (the chief at the check mesh's rows, with its flag) where
+    `transcribe` was given them (`transfer_chief`), else None."""
 
     problem: FuelOptimalTransfer
     mesh: SegmentedMesh
@@ -330,6 +331,8 @@ class Transcription:
     grid: Mesh
     chief: object
     ok: jax.Array
+    s_f: object = None
+    check_chief: object = None
 
     def linearised(self, Xc) -> FuelNLP:
         """The condensed problem with the dynamics linearised at the collocation-point states
@@ -362,11 +365,19 @@ class Transcription:
                        xf=xf, umax=umax, rate=rate)
 
 
-def transcribe(problem: FuelOptimalTransfer, mesh: SegmentedMesh) -> Transcription:
-    """The problem on `mesh` (breaks as fractions of [s0, s_f])."""
+def transcribe(problem: FuelOptimalTransfer, mesh: SegmentedMesh,
+               chief=None) -> Transcription:
+    """The problem on `mesh` (breaks as fractions of [s0, s_f]). chief: `transfer_chief`'s
+    (s_f, chief at the state rows, chief at the check mesh's rows) of the energy problem on
+    tau_mesh(mesh), where the caller has them (the solve's stages share one chief
+    integration); None: the rows' chief integrated here."""
     grid = tau_mesh(mesh)
-    ocp, chief, ok = transfer_ocp(problem.energy_problem(), grid)
-    return Transcription(problem, mesh, ocp, grid, chief, ok)
+    if chief is None:
+        ocp, samples, ok = transfer_ocp(problem.energy_problem(), grid)
+        return Transcription(problem, mesh, ocp, grid, samples, ok)
+    s_f, rows, check = chief
+    ocp, samples, ok = transfer_ocp(problem.energy_problem(), grid, s_f, rows)
+    return Transcription(problem, mesh, ocp, grid, samples, ok, s_f, check)
 
 
 def delta_v_unit(problem: FuelOptimalTransfer):
@@ -439,7 +450,7 @@ def to_solution(tr: Transcription, nlp: FuelNLP, res, valid, extra=None):
     w = safe_norm(v, axis=1)
     trajectory = zero_invalid(valid, collocated_trajectory(tr, nlp, rows, U * a_si, res.nu,
                                                            unit))
-    accuracy = collocation_accuracy(energy, grid, rows, U)
+    accuracy = collocation_accuracy(energy, grid, rows, U, s_f=tr.s_f, chief=tr.check_chief)
     for name in ("constraint_violation", "violation_position", "violation_velocity"):
         accuracy.pop(name)            # the bound's own measure is path_violation
     return Solution(

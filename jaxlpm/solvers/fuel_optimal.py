@@ -50,13 +50,14 @@ from ..compilation import compiled, pipelined
 from .._validation import is_concrete, require_x64
 from ..collocation import lg_nodes_weights
 from ..collocation.segments import (SEGMENTED_SCHEMES, LGLMesh, SegmentedMesh, aligned_breaks,
-                                   as_segmented, segmented_lgr, segmented_mesh, uniform_breaks)
+                                   as_segmented, segmented_lgr, segmented_mesh, tau_mesh,
+                                   uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
 from ..dynamics.chief import kepler_final_anomaly
 from ..implicit import root
 from ..mapping import map_in_groups
 from ..orbits import time_from_true_anomaly, true_anomaly_from_time
-from ..problems.energy_optimal import control_scale, lvlh_state, model_state
+from ..problems.energy_optimal import control_scale, lvlh_state, model_state, transfer_chief
 from ..problems.fuel_optimal import (FuelOptimalTransfer, check_fuel_problem, delta_v_unit,
                                      rocket_fuel, to_solution, transcribe)
 from ..nlp.homotopy import HomotopyOptions, controls, energy_to_fuel, residual, run_homotopy
@@ -104,30 +105,35 @@ def _linearisations(tr, options: HomotopyOptions):
     problem `nlp` linearised about the collocation states `reference` (K n, 6), relinearised
     about its solution until the states settle (module docstring). The result solves `nlp`
     itself: the homotopy's residual is ill-conditioned at a point inside the throttle's
-    transition (slope 1 / (2 eps)), so it is not re-evaluated on a later linearisation."""
+    transition (slope 1 / (2 eps)), so it is not re-evaluated on a later linearisation. The
+    first run, about zero states, is the loop's first pass (one homotopy in the program)."""
     def run_at(ref, nu0):
         nlp = tr.linearised(ref)
         res = run_homotopy(nlp.E, nlp.c, nlp.d, nu0, options)
         return nlp, res, nlp.cond.collocation_rows(nlp.states(res.nu, res.eps))
 
     ref = jnp.zeros((tr.mesh.n_points, 6), tr.ocp.params["x0"].dtype)
-    nlp, res, X = run_at(ref, jnp.zeros_like(tr.ocp.params["x0"]))
-    change = jnp.max(jnp.abs(X - ref))
+    nu0 = jnp.zeros_like(tr.ocp.params["x0"])
     if tr.problem.model == "linear":
-        return nlp, res, ref, jnp.asarray(1), jnp.zeros_like(change)
+        nlp, res, _ = run_at(ref, nu0)
+        return nlp, res, ref, jnp.asarray(1), jnp.zeros((), ref.dtype)
 
     def going(state):
         _, res, _, _, k, change = state
         ok = (res.status == Status.SUCCESS) | (res.status == Status.STALLED)
-        return ok & (k < options.max_linearisations) & (change > options.linearisation_tol)
+        return (k == 0) | (ok & (k < options.max_linearisations)
+                           & (change > options.linearisation_tol))
 
     def body(state):
         _, res, _, ref, k, _ = state
-        nlp, res, X = run_at(ref, res.nu_energy)
+        nlp, res, X = run_at(ref, jnp.where(k == 0, nu0, res.nu_energy))
         return nlp, res, ref, X, k + 1, jnp.max(jnp.abs(X - ref))
 
+    # the first pass's carry: zeros of run_at's outputs (never read: k == 0 starts from nu0)
+    nlp0, res0, _ = jax.tree_util.tree_map(lambda a: jnp.zeros(a.shape, a.dtype),
+                                           jax.eval_shape(run_at, ref, nu0))
     nlp, res, ref, _, runs, change = jax.lax.while_loop(
-        going, body, (nlp, res, ref, X, jnp.asarray(1), change))
+        going, body, (nlp0, res0, ref, ref, jnp.asarray(0), jnp.zeros((), ref.dtype)))
     return nlp, res, ref, runs, change
 
 
@@ -152,10 +158,12 @@ def _differentiable(z, problem, mesh, eps):
 def fuel_solve(problem, mesh, options):
     """The solve's first stage: (the problem with invalid values replaced, whether it was
     valid, the homotopy's result with its status, the final linearisation's reference states,
-    the linearisation stats)."""
+    the chief (`transfer_chief`: one integration for both stages), the linearisation
+    stats)."""
     valid = problem.validity()
     problem = problem.sanitized(valid)
-    tr = transcribe(problem, mesh)
+    chief = transfer_chief(problem.energy_problem(), tau_mesh(mesh))
+    tr = transcribe(problem, mesh, chief)
     nlp, res, ref, runs, change = jax.lax.stop_gradient(_linearisations(tr, options))
     status = jnp.where(
         (problem.model != "linear") & (res.status == Status.SUCCESS)
@@ -166,18 +174,19 @@ def fuel_solve(problem, mesh, options):
     else:
         nu, ref = _differentiable((res.nu, ref), problem, mesh, res.eps)
     res = dataclasses.replace(res, nu=nu, status=status)
-    return problem, valid, res, ref, dict(linearisations=runs, linearisation_change=change)
+    return problem, valid, res, ref, chief, dict(linearisations=runs,
+                                                 linearisation_change=change)
 
 
-def fuel_solution(problem, mesh, valid, res, ref, extra) -> Solution:
+def fuel_solution(problem, mesh, valid, res, ref, chief, extra) -> Solution:
     """The solve's last stage: the `Solution` of `fuel_solve`'s result."""
-    tr = transcribe(problem, mesh)
+    tr = transcribe(problem, mesh, chief)
     return to_solution(tr, tr.linearised(ref), res, valid, extra=extra)
 
 
 def _fuel_optimal_transfer(problem, mesh, options):
-    problem, valid, res, ref, extra = fuel_solve(problem, mesh, options)
-    return fuel_solution(problem, mesh, valid, res, ref, extra)
+    problem, *solved = fuel_solve(problem, mesh, options)
+    return fuel_solution(problem, mesh, *solved)
 
 
 _solve_stage = compiled(fuel_solve, static_argnames="options")
@@ -188,8 +197,8 @@ def _compiled(problem, mesh, options):
     """`_fuel_optimal_transfer` as its two stages, each compiled apart: the first solve of a
     signature compiles them side by side (`pipelined`)."""
     def run():
-        problem_s, valid, res, ref, extra = _solve_stage(problem, mesh, options)
-        return _solution_stage(problem_s, mesh, valid, res, ref, extra)
+        problem_s, *solved = _solve_stage(problem, mesh, options)
+        return _solution_stage(problem_s, mesh, *solved)
 
     return pipelined(run, _solve_stage, problem, mesh, options)
 
