@@ -123,8 +123,10 @@ def peer_data(problem, grid):
     node = jnp.concatenate([r, C.reshape(-1, 9), w, wd, q[:, None]], axis=1)      # (n, 19)
     glob = jnp.concatenate([jnp.stack([P["length"], P["n"], P["mu"], 0.5 * (ocp.sf - ocp.s0)]),
                             P["x0"], P["xf"]])                                     # (16,)
+    # the two-body models leave J2 out of the program (params["j2"] None): J2 = 0 for CasADi
+    j2 = jnp.zeros_like(P["mu"]) if P["j2"] is None else P["j2"]
     return dict(p=jnp.concatenate([node.reshape(-1), glob]), z0=z0, ok=ok,
-                j2=P["j2"], cost_scale=cost_scale(problem),
+                j2=j2, cost_scale=cost_scale(problem),
                 control_scale=control_scale(problem))
 
 
