@@ -103,7 +103,7 @@ def test_bad_input():
 
 
 def test_approach_case_is_registered_and_valid():
-    """`jaxlpm reproduce approach` (five minutes on two cores: run by hand, numbers in
+    """`jaxlpm reproduce approach` (about a minute on two cores: run by hand, numbers in
     docs/approach.md) builds valid problems with its four constraints on the J2 model."""
     from jaxlpm.cases import CASES, approach
 
