@@ -61,8 +61,8 @@ as a few programs each (a Newton-KKT transfer: its setup and warm start, its New
 augmented-Lagrangian iterations, its solution and error estimate), and the first solve of a
 signature (its first program not in memory) compiles them by a prefetch dry run, so that one
 compiles on the second core while the next is traced. mei2010's first Newton-KKT transfer
-(two-body, lgl(65)): 6.0-8.3 s as one program, 4.2-5.5 s as three on a noisy 2-core VM
-(bench_compile.py, BENCHMARKS.md "Cold start", 2026-12-06, seventh session).
+(two-body, lgl(65)): 6.0-8.3 s as one program, 3.3-4.6 s as three on a noisy 2-core VM
+(bench_compile.py, BENCHMARKS.md "Cold start", 2026-12-06, seventh and eighth sessions).
 
 The folder is JAXLPM_CACHE_DIR (default ~/.cache/jaxlpm/jax, the CLI's compilation cache);
 JAXLPM_CACHE_DIR="" turns the disk cache off. `clear()` empties the memory cache (the test
