@@ -78,7 +78,7 @@ from dataclasses import dataclass, field
 import jax
 import jax.numpy as jnp
 
-from ..compilation import compiled
+from ..compilation import compiled, pipelined
 from ..collocation import Grid, lgl
 from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import VARIATIONAL, propagate, solve_ode
@@ -92,7 +92,7 @@ from ..solution import FiniteBurn, Solution, zero_invalid
 from ..solution.accuracy import accuracy_stats
 from ..status import Status
 from .family import FamilySolver
-from .impulsive import solve_impulsive
+from .impulsive import compiled_solve as compiled_impulsive
 
 LENGTH = 1.0e7            # m: length scale of the collocated state
 MIN_POINTS = 3
@@ -298,18 +298,22 @@ def n_multipliers(grid) -> int:
 
 def _seed(problem: FiniteBurnIntercept):
     """(t_b (s), dv (3,) (m/s), status) of the impulse that seeds eq. (2): the user's, or the
-    intercept's impulsive solution (`jaxlpm.solvers.impulsive`)."""
+    intercept's impulsive solution by the impulsive family's own compiled program
+    (`jaxlpm.solvers.impulsive.run`: a program of its own, the one a solve of the intercept
+    runs, not a copy inside the burn's)."""
     if problem.seeded:
         return problem.seed_time, problem.seed_dv, jnp.asarray(Status.SUCCESS, jnp.int32)
-    impulsive = solve_impulsive(problem.intercept)
+    impulsive = compiled_impulsive(problem.intercept)
     return impulsive.stats["t_burn"], impulsive.stats["dv"], impulsive.status
 
 
-def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions) -> Solution:
+def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions,
+                 seed) -> Solution:
+    """The burn for the seed impulse (`_seed`) of the problem as given."""
     valid = problem.validity()
     problem = problem.sanitized(valid)
     ip = problem.intercept
-    t_impulse, dv_impulse, seed_status = _seed(problem)
+    t_impulse, dv_impulse, seed_status = seed
     dv = jnp.linalg.norm(dv_impulse)
     T = problem.mass * dv / problem.thrust                         # eq. (2)
     t_s0 = t_impulse - 0.5 * T
@@ -395,8 +399,13 @@ def check_grid(grid, method):
 def run(problem, grid, method, options: FiniteBurnOptions) -> Solution:
     """Minimum-duration finite burn (module docstring) on an LGL grid: jit-compiled once per
     grid size, options and static structure (seed given or not); traceable (vmap over
-    problems; not differentiable end to end: the t_s search is a while loop of solves)."""
-    return _compiled(problem, grid, options)
+    problems; not differentiable end to end: the t_s search is a while loop of solves).
+    Unseeded, the impulsive seed is a program of its own: a first solve compiles it beside
+    the burn's (`jaxlpm.compilation.pipelined`)."""
+    if problem.seeded:
+        return _compiled(problem, grid, options, _seed(problem))
+    return pipelined(lambda: _compiled(problem, grid, options, _seed(problem)),
+                     compiled_impulsive, problem.intercept)
 
 
 FAMILY = FamilySolver(problem=FiniteBurnIntercept,

@@ -281,7 +281,9 @@ def solve_impulsive(problem: ImpulsiveIntercept) -> Solution:
                     method="shooting", frame="inertial")
 
 
-_compiled = compiled(solve_impulsive)
+compiled_solve = compiled(solve_impulsive)
+"""`solve_impulsive` compiled once per static structure (`jaxlpm.compilation.compiled`): what
+`run` calls, and the finite burn's seed (`jaxlpm.solvers.finite_burn`)."""
 
 
 def check_grid(grid, method):
@@ -293,7 +295,7 @@ def run(problem, grid, method, options) -> Solution:
     """Solve an `ImpulsiveIntercept` (module docstring): jit-compiled once per static
     structure (a burn time or a window; revolutions and branch given or chosen); traceable
     (vmap over problems; |dv| is differentiable for a given burn time)."""
-    return _compiled(problem)
+    return compiled_solve(problem)
 
 
 FAMILY = FamilySolver(problem=ImpulsiveIntercept, methods={"shooting": None}, run=run,
