@@ -180,7 +180,11 @@ def _aval(leaf):
     the time of formatting `jax.typeof`: a staged solve's keys have about a hundred leaves)."""
     if isinstance(leaf, (jax.Array, np.ndarray, np.generic)):
         return f"{leaf.dtype.name}[{','.join(map(str, leaf.shape))}]"
-    return str(jax.typeof(leaf)).lstrip("~")
+    try:
+        return str(jax.typeof(leaf)).lstrip("~")
+    except TypeError as err:
+        raise TypeError(f"{leaf!r:.80} is not an array or a number: a compiled function takes "
+                        f"such an argument in static_argnames") from err
 
 
 class Compiled:

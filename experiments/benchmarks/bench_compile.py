@@ -25,6 +25,7 @@ Run:  PYTHONPATH=. python experiments/benchmarks/bench_compile.py [--entries all
 """
 
 import argparse
+import collections
 import json
 import os
 import subprocess
@@ -182,8 +183,13 @@ def reproduce(cases, source):
                 row[kind] = _timed_cli(case, _env(cache, source=source), out, source)
             rows.append(row)
             print(f"{case:<10} cold {row['cold']['wall_s']:7.1f} s (longest silence "
-                  f"{row['cold']['longest_gap_s']:5.1f} s)   warm {row['warm']['wall_s']:6.1f} s"
-                  f" (longest silence {row['warm']['longest_gap_s']:5.1f} s)", flush=True)
+                  f"{row['cold']['longest_gap_s']:5.1f} s){_failed(row['cold'])}   warm "
+                  f"{row['warm']['wall_s']:6.1f} s (longest silence "
+                  f"{row['warm']['longest_gap_s']:5.1f} s){_failed(row['warm'])}", flush=True)
+            for kind in ("cold", "warm"):
+                if row[kind]["returncode"] != 0:
+                    print("\n".join(f"  {kind}: {line}" for line in row[kind]["tail"]),
+                          flush=True)
     return rows
 
 
@@ -192,13 +198,20 @@ def _timed_cli(case, env, out, source):
     proc = subprocess.Popen([sys.executable, "-m", "jaxlpm.cli", "reproduce", case, "--out",
                              out], env=env, cwd=source, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
-    last, gap = t0, 0.0
-    for _ in proc.stdout:
+    last, gap, tail = t0, 0.0, collections.deque(maxlen=5)
+    for line in proc.stdout:
         now = time.perf_counter()
         gap, last = max(gap, now - last), now
+        tail.append(line.rstrip())
     proc.wait()
     end = time.perf_counter()
-    return dict(wall_s=end - t0, longest_gap_s=max(gap, end - last), returncode=proc.returncode)
+    return dict(wall_s=end - t0, longest_gap_s=max(gap, end - last), returncode=proc.returncode,
+                tail=list(tail))
+
+
+def _failed(run):
+    """A run that did not finish is not a time: say so beside it."""
+    return "" if run["returncode"] == 0 else f" FAILED (exit {run['returncode']})"
 
 
 def casadi_side_by_side():

@@ -241,7 +241,7 @@ def compute(log=print):
     # of the J2-exact solution) with the same revolutions and branch
     t2 = time.perf_counter()
     ts = np.linspace(2000.0, 60000.0, 117)
-    states, _ = compiled(propagate)(prob.state0, ts[-1], ts=ts)
+    states, _ = compiled(propagate, static_argnames="integrator")(prob.state0, ts[-1], ts=ts)
 
     def _scan_one(state, t):
         sol = lambert(state[:3], prob.r_target, T_F - t, m_best, b_best)
