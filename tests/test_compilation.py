@@ -232,3 +232,20 @@ def test_a_dry_run_answers_only_its_own_thread(monkeypatch):
     leave.set()
     worker.join()
     assert float(total) == 6.0                           # (0 + 1 + 2) * 2
+
+
+def test_a_non_array_argument_is_static_or_a_clear_error():
+    """A compiled function's settings object (an `Integrator`) is not an array: in
+    static_argnames it keys the executable; left dynamic, the call says which argument kind
+    needs static_argnames (it once stopped `jaxlpm reproduce tan2011` with JAX's bare
+    "not a valid JAX type")."""
+    from jaxlpm.dynamics.propagation import propagate
+
+    state = jnp.array([7.0e6, 0.0, 0.0, 0.0, 7.5e3, 0.0])
+    with pytest.raises(TypeError, match="static_argnames"):
+        compilation.compiled(propagate)(state, 60.0)
+    end, ok = compilation.compiled(propagate, static_argnames="integrator")(state, 60.0)
+    direct, _ = propagate(state, 60.0)
+    assert bool(ok)
+    # the same integration, compiled apart from the eager one: round-off apart
+    np.testing.assert_allclose(end, direct, rtol=1e-12)
