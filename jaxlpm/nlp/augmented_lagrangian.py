@@ -38,7 +38,7 @@ from ..implicit import root
 from .ocp import PathPenalty
 from .transcription import equality, n_variables, objective, path_values
 from ..status import Status
-from .newton import DenseKKT, NewtonOptions, newton_iterations
+from .newton import DenseKKT, NewtonOptions, first_multipliers, newton_iterations
 
 _RUNNING = -1
 
@@ -267,9 +267,8 @@ def augmented_lagrangian(ocp, grid, z0, multipliers0=None,
         lo, hi = (float(b) for b in jnp.asarray(ocp.final_bounds))
         if not lo < hi:
             raise ValueError(f"final_bounds must satisfy sf_min < sf_max, got [{lo}, {hi}]")
-    if multipliers0 is None:          # a starting point: not differentiated
-        fixed = jax.lax.stop_gradient((ocp, z0))
-        multipliers0 = linear_algebra(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
+    if multipliers0 is None:
+        multipliers0 = first_multipliers(ocp, grid, z0, linear_algebra)
     if penalty0 is None:
         penalty0 = start_penalty(ocp, grid, options.rho0, z0.dtype)
     path0 = [jnp.reshape(v, -1).astype(z0.dtype)

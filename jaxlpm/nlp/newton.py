@@ -176,6 +176,13 @@ class DenseKKT:
         return _least_squares_multipliers(z, self.ocp, self.grid)
 
 
+def first_multipliers(ocp, grid, z0, linear_algebra=DenseKKT):
+    """The linear algebra's first estimate of the equality multipliers at z0 (`DenseKKT`:
+    least squares): a starting point, not differentiated."""
+    fixed_ocp, fixed_z0 = jax.lax.stop_gradient((ocp, z0))
+    return linear_algebra(fixed_ocp, grid, fixed_z0).first_multipliers(fixed_z0)
+
+
 def newton_step(ocp, grid, z, linear_algebra=DenseKKT):
     """One full Newton-KKT step from z with zero multipliers: the exact solution when the
     problem is a QP (linear dynamics, quadratic cost), e.g. the linear transfer's KKT law.
@@ -471,9 +478,8 @@ def newton_kkt(ocp, grid, z0, multipliers0=None, options: NewtonOptions = Newton
                          f"got {multipliers0.shape}")
     if is_concrete(z0):
         check_finite("z0", z0)
-    if multipliers0 is None:          # a starting point: not differentiated
-        fixed = jax.lax.stop_gradient((ocp, z0))
-        multipliers0 = linear_algebra(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
+    if multipliers0 is None:
+        multipliers0 = first_multipliers(ocp, grid, z0, linear_algebra)
     w, report = _solver(options, homotopy, linear_algebra)(
         jnp.concatenate([z0, multipliers0]), ocp, grid)
     return NLPResult(z=w[:n], multipliers=w[n:], status=report.status,

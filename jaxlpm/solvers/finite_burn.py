@@ -299,8 +299,8 @@ def n_multipliers(grid) -> int:
 def _seed(problem: FiniteBurnIntercept):
     """(t_b (s), dv (3,) (m/s), status) of the impulse that seeds eq. (2): the user's, or the
     intercept's impulsive solution by the impulsive family's own compiled program
-    (`jaxlpm.solvers.impulsive.run`: a program of its own, the one a solve of the intercept
-    runs, not a copy inside the burn's)."""
+    (`jaxlpm.solvers.impulsive.compiled_solve`, the one a solve of the intercept runs; not a
+    copy inside the burn's)."""
     if problem.seeded:
         return problem.seed_time, problem.seed_dv, jnp.asarray(Status.SUCCESS, jnp.int32)
     impulsive = compiled_impulsive(problem.intercept)

@@ -51,7 +51,7 @@ from ..implicit import root
 from ..nlp.augmented_lagrangian import (ALOptions, al_kkt_residual, augmented_lagrangian,
                                         stack_kkt_point, start_penalty)
 from ..nlp.homotopy import smoothed_cost
-from ..nlp.newton import NewtonOptions, NLPResult
+from ..nlp.newton import NewtonOptions, NLPResult, first_multipliers
 from ..nlp.ocp import PathPenalty
 from ..nlp.transcription import objective, unpack
 from ..problems import safety
@@ -249,8 +249,8 @@ def fuel_al_setup(problem, mesh: SegmentedMesh, options: FuelALOptions):
     rows = chief_rows(problem, grid)
     _, energy_ocp, _, _, energy = jax.lax.stop_gradient(constrained_ocp(problem, grid, *rows))
     z0, _ = linear_warm_start(energy.replace(constraints=()), energy_ocp, grid)
-    la = auto_linear_algebra(energy, grid)
-    return problem, valid, rows, (z0, la(energy_ocp, grid, z0).first_multipliers(z0))
+    multipliers0 = first_multipliers(energy_ocp, grid, z0, auto_linear_algebra(energy, grid))
+    return problem, valid, rows, (z0, multipliers0)
 
 
 def _al(options: FuelALOptions, mesh):

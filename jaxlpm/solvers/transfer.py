@@ -26,7 +26,8 @@ from ..status import Status
 from .lq import kkt_law
 from ..nlp.condensed_segments import condensed_linear_algebra
 from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
-from ..nlp.newton import DenseKKT, NewtonOptions, NLPResult, newton_kkt, newton_step
+from ..nlp.newton import (DenseKKT, NewtonOptions, NLPResult, first_multipliers, newton_kkt,
+                          newton_step)
 from ..solution import Solution
 
 
@@ -189,9 +190,8 @@ def transfer_setup(problem, grid, warm_start: bool = True, z0=None,
         n_rows = state_tau(grid).shape[0]
         z0 = pack(jnp.zeros((n_rows, ocp.n_x)), jnp.zeros((grid.n, ocp.n_u)), ocp.sf, ocp)
         linear_singular = jnp.array(False)
-    fixed = jax.lax.stop_gradient((ocp, z0))          # a starting point: not differentiated
-    la = _linear_algebra(problem, grid, linear_algebra)
-    multipliers0 = la(fixed[0], grid, fixed[1]).first_multipliers(fixed[1])
+    multipliers0 = first_multipliers(ocp, grid, z0,
+                                     _linear_algebra(problem, grid, linear_algebra))
     return TransferSetup(problem, valid, s_f, rows_chief, check_chief, z0, multipliers0,
                          linear_singular)
 
