@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..compilation import compiled
+from ..compilation import compiled, prefetch
 from .. import verify
 from ..collocation import lgl
 from ..constants import G0, J2_EARTH, MU_EARTH, R_EARTH
@@ -45,6 +45,7 @@ from ..problems.intercept import FiniteBurnIntercept, ImpulsiveIntercept
 from ..solvers import solve
 from ..solvers.impulsive import aim_point_iteration, burn_state, lambert_candidates
 from ..status import Status
+from ..verify.fly import N_SAVE
 from ..verify.inertial import fly, fly_burn
 
 NAME = "tan2011"
@@ -89,18 +90,34 @@ def _burn_position(e, argp):
     return propagate(x0, T_BURN, MU_EARTH, J2_EARTH, R_EARTH)[0][:2]
 
 
+def _recover(iterations):
+    """(e, argp) after `iterations` Newton steps and the burn-point residual there (m): one
+    program, each pass a residual and its Jacobian (one reverse pass through the coast)."""
+    target = jnp.asarray(R_BURN[:2])
+
+    def residual(p):
+        r = _burn_position(p[0], p[1]) - target
+        return r, r
+
+    def step(k, c):
+        p, _ = c
+        jac, r = jax.jacrev(residual, has_aux=True)(p)
+        return jnp.where(k < iterations, p - jnp.linalg.solve(jac, r), p), r
+
+    p0 = jnp.array([ELEMENTS_PRINTED["e"], ELEMENTS_PRINTED["argp"]])
+    p, r = jax.lax.fori_loop(0, iterations + 1, step, (p0, jnp.zeros(2)))
+    return p, jnp.linalg.norm(r)
+
+
+_compiled_recover = compiled(_recover, static_argnames="iterations")
+
+
 def recover_elements(iterations: int = 8):
     """(e, argp) for which the J2 coast of Table 1's orbit reaches Table 2's burn point at
     24255.706 s (x, y; z = 0 holds for any equatorial orbit); a and f0 as printed. Newton on
     the 2 x 2 system with the autodiff Jacobian. Returns (elements dict, burn-point residual m)."""
-    target = jnp.asarray(R_BURN[:2])
-    f = jax.jit(lambda p: _burn_position(p[0], p[1]) - target)
-    jac = jax.jit(jax.jacrev(f))
-    p = jnp.array([ELEMENTS_PRINTED["e"], ELEMENTS_PRINTED["argp"]])
-    for _ in range(iterations):                   # host loop: 8 steps of one compiled solve
-        p = p - jnp.linalg.solve(jac(p), f(p))
-    el = dict(ELEMENTS_PRINTED, e=float(p[0]), argp=float(p[1]))
-    return el, float(jnp.linalg.norm(f(p)))
+    p, resid = _compiled_recover(iterations)
+    return dict(ELEMENTS_PRINTED, e=float(p[0]), argp=float(p[1])), float(resid)
 
 
 def problem(elements=None, burn_time=T_BURN, **kwargs) -> ImpulsiveIntercept:
@@ -129,6 +146,22 @@ def verify_miss(r_burn, v_post, t_burn, samples=0):
 
 _fly = compiled(fly)
 _fly_burn = compiled(fly_burn)
+_compiled_burn_state = compiled(burn_state)
+
+
+def lambert_scan(states, ts, r_target, revolutions, branch):
+    """The two-body Lambert |dv| (m/s) from each pre-burn state [r, v] (K, 6) at ts (K,) to
+    r_target at T_F with the given revolutions and branch (inf where Lambert fails): the
+    coarse scan that picks the burn-time basin."""
+    def one(state, t):
+        sol = lambert(state[:3], r_target, T_F - t, revolutions, branch)
+        ok = sol.status == Status.SUCCESS
+        return jnp.where(ok, jnp.linalg.norm(sol.v1 - state[3:]), jnp.inf)
+
+    return jax.vmap(one)(states, ts)
+
+
+_compiled_lambert_scan = compiled(lambert_scan)
 
 
 def finite_burn_problem(prob: ImpulsiveIntercept) -> FiniteBurnIntercept:
@@ -137,9 +170,10 @@ def finite_burn_problem(prob: ImpulsiveIntercept) -> FiniteBurnIntercept:
     return FiniteBurnIntercept(prob, jnp.asarray(THRUST), jnp.asarray(MASS), jnp.asarray(ISP))
 
 
-def burn_samples(sol, n=300):
+def burn_samples(sol, n=N_SAVE):
     """(times (n,), flown [r, v, m] (n, 7)) over a finite burn by the independent integrator
-    (`jaxlpm.verify.inertial.fly_burn`, the flight of `jaxlpm.verify.fly`)."""
+    (`jaxlpm.verify.inertial.fly_burn`, the flight of `jaxlpm.verify.fly`: at its N_SAVE
+    samples, one program serves both)."""
     tr = sol.trajectory
     ts = jnp.linspace(tr.t_start, tr.t_end, n)
     states, _ = _fly_burn(tr.state0, tr.burn(), sol.duration, ts, tr.mu, tr.j2, tr.r_eq)
@@ -204,7 +238,7 @@ def _vec(x):
 def compute(log=print):
     t0 = time.perf_counter()
     el, resid = recover_elements()
-    printed_burn = np.asarray(burn_state(problem(), T_BURN)[0][:3])
+    printed_burn = np.asarray(_compiled_burn_state(problem(), T_BURN)[0][:3])
     log(f"elements recovered in {time.perf_counter() - t0:.1f} s: e = {el['e']:.7f}, "
         f"argp = {el['argp'] / DEG:.6f} deg (burn-point residual {resid:.2e} m)")
     prob = problem(el)
@@ -229,9 +263,9 @@ def compute(log=print):
              for v, m, b, s in zip(v1, revs, branch, status)]
 
     # steps 2-5, as printed and with accumulated corrections
-    api = compiled(aim_point_iteration, static_argnames=("iterations", "accumulate"))
-    dv_p, miss_p = api(prob, T_BURN, m_best, b_best, ROUGH_ITERATIONS, False)
-    dv_a, miss_a = api(prob, T_BURN, m_best, b_best, ROUGH_ITERATIONS, True)
+    api = compiled(aim_point_iteration, static_argnames="iterations")
+    dv_p, miss_p = api(prob, T_BURN, m_best, b_best, ROUGH_ITERATIONS, jnp.asarray(False))
+    dv_a, miss_a = api(prob, T_BURN, m_best, b_best, ROUGH_ITERATIONS, jnp.asarray(True))
     miss_p, miss_a = np.linalg.norm(miss_p, axis=1), np.linalg.norm(miss_a, axis=1)
     rough_dv = np.asarray(dv_p[1])
     rough_miss, _ = verify_miss(rb, vb + rough_dv, T_BURN)
@@ -243,12 +277,7 @@ def compute(log=print):
     ts = np.linspace(2000.0, 60000.0, 117)
     states, _ = compiled(propagate, static_argnames="integrator")(prob.state0, ts[-1], ts=ts)
 
-    def _scan_one(state, t):
-        sol = lambert(state[:3], prob.r_target, T_F - t, m_best, b_best)
-        ok = sol.status == Status.SUCCESS
-        return jnp.where(ok, jnp.linalg.norm(sol.v1 - state[3:]), jnp.inf)
-
-    scan_dv = np.asarray(jax.jit(jax.vmap(_scan_one))(states, ts))
+    scan_dv = np.asarray(_compiled_lambert_scan(states, ts, prob.r_target, m_best, b_best))
     j = int(np.argmin(scan_dv))
     lo, hi = ts[max(j - 1, 0)], ts[min(j + 1, len(ts) - 1)]
     opt = solve(problem(el, [lo, hi], revolutions=m_best, branch=b_best))
@@ -444,7 +473,13 @@ def _finite_burn_figure(sols, samples, path):
 
 
 def reproduce(out_dir, log=print):
-    """Run the case: compute, print, draw. Returns the JSON-ready result dict."""
+    """Run the case: compute (its programs traced first by a dry run,
+    `jaxlpm.compilation.prefetch`, and compiled two at a time while it runs), print, draw.
+    Returns the JSON-ready result dict."""
+    t = time.perf_counter()
+    n = prefetch(lambda: compute(log=lambda msg: None), log, wait=False)
+    log(f"traced the case's programs in {time.perf_counter() - t:.1f} s; {n} compile two "
+        f"at a time while it runs (each solve waits for its own)")
     prob, data, computed = compute(log)
     report(computed, log)
     out_dir.mkdir(parents=True, exist_ok=True)

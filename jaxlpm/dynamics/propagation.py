@@ -17,6 +17,8 @@ control:
                 integration choice with the solvers' Dopri8.
   VARIATIONAL   Dopri8, 1e-9: second-order variational equations that only shape a
                 boundary model's curvature (they set a convergence rate, not a result).
+  COAST_TANGENT COAST in forward mode: a coast's end state and its Jacobian in the
+                initial state from one `jax.jacfwd` pass (a finite burn's terminal model).
 Differentiable in reverse mode (diffrax's recursive checkpointing adjoint) unless an
 `Integrator` says otherwise; `j2 = 0` gives exactly two-body. SI units: m, m/s, s.
 """
@@ -53,6 +55,7 @@ EPHEMERIS = Integrator(1e-13, 1e-13)
 SHOOTING = Integrator(1e-13, 1e-13, adjoint="ForwardMode")
 INDEPENDENT = Integrator(1e-13, 1e-13, max_steps=1_000_000, solver="Tsit5")
 VARIATIONAL = Integrator(1e-9, 1e-9)
+COAST_TANGENT = Integrator(1e-12, 1e-12, adjoint="ForwardMode")
 
 
 def _all_finite(tree):

@@ -26,6 +26,7 @@ theorem on the full KKT system [grad L; c; H; min(-G, mu); min(-B, mu_B)] (stric
 complementarity makes it smooth at the solution), never through the iterations.
 """
 
+import dataclasses
 import functools
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -36,9 +37,10 @@ import jax.numpy as jnp
 from .._validation import check_finite, is_concrete
 from ..implicit import root
 from .ocp import PathPenalty
-from .transcription import equality, n_variables, objective, path_values
+from .transcription import equality, equality_jacobian, n_variables, objective, path_values
 from ..status import Status
-from .newton import DenseKKT, NewtonOptions, first_multipliers, newton_iterations
+from .newton import (DenseKKT, NewtonOptions, first_multipliers, least_squares_multipliers,
+                     newton_iterations)
 
 _RUNNING = -1
 
@@ -233,6 +235,26 @@ def start_penalty(ocp, grid, rho0, dtype) -> PathPenalty:
     _, _, sg, sh, sb = _sizes(ocp, grid)
     return PathPenalty(jnp.zeros(sg, dtype), jnp.zeros(sh, dtype), jnp.zeros(sb, dtype),
                        jnp.asarray(rho0, dtype))
+
+
+def least_squares_start(ocp, grid, z, rho0) -> tuple:
+    """(lambda0, penalty0): the equality multipliers and the path-equality multipliers nu
+    together by least squares, argmin |grad f + A^T lambda + J_H^T nu| (the estimate of
+    `jaxlpm.nlp.newton.first_multipliers` extended to h = 0), inequality and bound
+    multipliers 0, rho = rho0: a start from which the first Hessian has the path equalities'
+    curvature nu . h''. From nu = 0, a path equality whose value is 0 at z0 (a unit thrust
+    direction |u|^2 - 1 of a guess) leaves the Lagrangian's Hessian singular across it (the
+    PHR term's Hessian, rho grad h grad h^T, has rank one per point), and the first Newton
+    step is then decided by round-off (tan2011's 20-node finite burn: a step of 1e7 that no
+    line search accepts, for 7 of 8 seeds 1e-11 apart). Not differentiated."""
+    fixed_ocp, z = jax.lax.stop_gradient((ocp, z))
+    A = equality_jacobian(z, fixed_ocp, grid)
+    J_h = jax.jacfwd(lambda v: path_values(v, fixed_ocp, grid)[1].reshape(-1))(z)
+    y = least_squares_multipliers(jnp.concatenate([A, J_h]),
+                                  jax.grad(objective)(z, fixed_ocp, grid))
+    start = start_penalty(ocp, grid, rho0, z.dtype)
+    return y[:A.shape[0]], dataclasses.replace(start, equality=y[A.shape[0]:].reshape(
+        start.equality.shape))
 
 
 def stack_kkt_point(result: ALResult):

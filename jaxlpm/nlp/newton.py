@@ -120,12 +120,17 @@ def _kkt_step(H, A, g, c, dw, dc):
     return sol[:n], sol[n:], inertia_ok
 
 
+def least_squares_multipliers(J, g):
+    """argmin_y |g + J^T y| for the constraint Jacobian J (m, n) and the objective's gradient
+    g (n,) (the normal equations through `_gram_factor`)."""
+    return -cholesky_factor_solve(_gram_factor(J), J @ g)
+
+
 def _least_squares_multipliers(z, ocp, grid):
     """lambda0 = argmin |grad f + A^T lambda|: the usual first multiplier estimate (IPOPT's
     default; Nocedal & Wright eq. 18.21), so the first Hessian sees the constraints' curvature."""
-    g = jax.grad(objective)(z, ocp, grid)
-    A = equality_jacobian(z, ocp, grid)
-    return -cholesky_factor_solve(_gram_factor(A), A @ g)
+    return least_squares_multipliers(equality_jacobian(z, ocp, grid),
+                                     jax.grad(objective)(z, ocp, grid))
 
 
 def _gram_factor(A):

@@ -26,7 +26,7 @@ eq. 8-14), solved by the augmented-Lagrangian solver around Newton-KKT. Boundary
 the start state (exact, the coast to t_s) and the end position after the coast, replaced by its
 second-order Taylor model about the current iterate,
     r_f + A dx + v_f dtau + (1/2) [H(dx, dx) + 2 dtau (dv_f/dx) dx + a_f dtau^2]
-(A = dr_f/dx_e by reverse-mode autodiff through the coast, H and dv_f/dx from the variational
+(A = dr_f/dx_e by forward-mode autodiff through the coast, H and dv_f/dx from the variational
 equations, dtau the change of the coast duration t_f - t_e), since the solver needs the
 boundary's Hessian and diffrax's adjoint gives no second derivatives. The model is rebuilt at
 each solution until the nonlinear terminal residual is below `tol_boundary`; at that fixed
@@ -44,9 +44,10 @@ making the Newton-KKT matrix singular.
 Initial guess (the paper's eq. 2): the burn centred on the impulsive burn time t_b with the
 duration T = m0 |dv| / F, t_s0 = t_b - T / 2, direction along dv; nodal states: the coast from
 t_s plus the constant-acceleration increments (F / m0) u_hat (t - t_s) in velocity and half
-its time integral in position; the multipliers by least squares there. The impulse (t_b, dv)
+its time integral in position; the multipliers by least squares there, those of the
+unit-direction equality with them (`least_squares_start`). The impulse (t_b, dv)
 is the problem's seed, or else the intercept's impulsive solution (`jaxlpm.solvers.impulsive`,
-solved inside the same program).
+its own compiled program).
 
 `jaxlpm.solve(FiniteBurnIntercept(...), lgl(n))` (method "augmented-lagrangian", default grid
 lgl(5)) returns a `Solution` (frame "inertial", trajectory `jaxlpm.solution.FiniteBurn`):
@@ -73,6 +74,7 @@ lgl(5)) returns a `Solution` (frame "inertial", trajectory `jaxlpm.solution.Fini
             input). Outputs of a search that did not run, or non-finite ones, are zeros.
 """
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import jax
@@ -81,10 +83,11 @@ import jax.numpy as jnp
 from ..compilation import compiled, pipelined
 from ..collocation import Grid, lgl
 from ..dynamics.gravity import inertial_rhs
-from ..dynamics.propagation import VARIATIONAL, propagate, solve_ode
+from ..dynamics.propagation import COAST_TANGENT, VARIATIONAL, propagate, solve_ode
 from ..nlp.accuracy import check_flight, check_mesh, collocation_defects, unit_direction
-from ..nlp.augmented_lagrangian import ALOptions, augmented_lagrangian
-from ..nlp.newton import DenseKKT, NewtonOptions
+from ..nlp.augmented_lagrangian import (ALOptions, augmented_lagrangian, least_squares_start,
+                                        start_penalty)
+from ..nlp.newton import NewtonOptions
 from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import pack, unpack
 from ..problems.intercept import FiniteBurnIntercept
@@ -161,7 +164,14 @@ def _boundary(x0, xf, sf, p):
 
 
 def _coast_end(x_e, duration, p):
-    return propagate(x_e, duration, p["mu"], p["j2"], p["r_eq"])
+    """(end [r, v] (6,), dr_f/dx_e (3, 6), ok) of the coast from x_e: one forward-mode pass
+    (`COAST_TANGENT`: the COAST integration and its six tangents)."""
+    def position(x):
+        end, ok = propagate(x, duration, p["mu"], p["j2"], p["r_eq"], integrator=COAST_TANGENT)
+        return end[:3], (end, ok)
+
+    A, (end, ok) = jax.jacfwd(position, has_aux=True)(x_e)
+    return end, A, ok
 
 
 def _second_order_stm(x_e, duration, p):
@@ -197,8 +207,7 @@ def _end_model(z, ocp, grid):
     X, _, sf = unpack(z, ocp, grid)
     x_e = X[-1] * _scales(p)
     t_e = p["t_s"] + p["T"] * sf
-    end, ok = _coast_end(x_e, p["t_f"] - t_e, p)
-    A = jax.jacrev(lambda x: _coast_end(x, p["t_f"] - t_e, p)[0][:3])(x_e)
+    end, A, ok = _coast_end(x_e, p["t_f"] - t_e, p)
     Phi, Psi, ok_stm = _second_order_stm(x_e, p["t_f"] - t_e, p)
     model = {"r_f": end[:3], "v_f": end[3:], "A": A, "H": Psi[:3], "dv_dx": Phi[3:],
              "a_f": _rate(end, p)[3:], "x_e": x_e, "t_e": t_e}
@@ -206,74 +215,106 @@ def _end_model(z, ocp, grid):
     return model, miss / LENGTH, miss, ok & ok_stm
 
 
-def _arc_ocp(p, t_s, sf_guess, max_duration):
-    """(The collocated arc problem for burn start t_s (s), ok of the coast to t_s)."""
-    x_s, ok = propagate(p["state0"], t_s, p["mu"], p["j2"], p["r_eq"])
-    ocp = OptimalControlProblem(
+def _empty_model():
+    """Zeros of `_end_model`'s model (the initial carry of the arc's loop)."""
+    shapes = {"r_f": 3, "v_f": 3, "A": (3, 6), "H": (3, 6, 6), "dv_dx": (3, 6), "a_f": 3,
+              "x_e": 6, "t_e": ()}
+    return {k: jnp.zeros(shape) for k, shape in shapes.items()}
+
+
+def _arc_ocp(p, t_s, x_s, sf_guess, max_duration):
+    """The collocated arc problem for burn start t_s (s), from the state x_s there; its
+    terminal model (params["model"]) zeros until `_end_model` builds it."""
+    return OptimalControlProblem(
         n_x=6, n_u=3, dynamics=_dynamics, running_cost=_no_running_cost, boundary=_boundary,
-        s0=jnp.asarray(0.0), sf=sf_guess, params=dict(p, t_s=t_s, x_s=x_s),
+        s0=jnp.asarray(0.0), sf=sf_guess,
+        params=dict(p, t_s=t_s, x_s=x_s, model=_empty_model()),
         terminal_cost=_duration, free_final=True, path_equality=_unit_direction,
         final_bounds=jnp.stack([0.0, max_duration / p["T"]]))
-    return ocp, ok
+
+
+def _start(p, t_s):
+    """([r, v] at burn start t_s: the coast of state0, ok)."""
+    return propagate(p["state0"], t_s, p["mu"], p["j2"], p["r_eq"])
 
 
 def _guess_z(ocp, grid, u):
-    """Nodal states of eq. (2)'s burn: the coast from t_s plus the constant-acceleration
-    increments along u; directions u; s_f = 1."""
+    """Nodal states of eq. (2)'s burn: the coast from state0 through t_s plus the
+    constant-acceleration increments along u; directions u; s_f = 1."""
     p = ocp.params
     dt = 0.5 * p["T"] * (grid.points + 1.0)
-    coast, _ = propagate(p["x_s"], p["T"], p["mu"], p["j2"], p["r_eq"], ts=dt)
+    coast, _ = propagate(p["state0"], p["t_s"] + p["T"], p["mu"], p["j2"], p["r_eq"],
+                         ts=p["t_s"] + dt)
     a = p["thrust"] / p["mass"]
     rv = coast + jnp.concatenate([0.5 * a * dt[:, None] ** 2 * u, a * dt[:, None] * u], axis=1)
     return pack(rv / _scales(p), jnp.tile(u, (grid.n, 1)), 1.0, ocp)
 
 
-def _solve_arc(p, grid, t_s, z, lam, max_duration, options, cold):
-    """Minimum D for burn start t_s from (z, lam): the augmented-Lagrangian arc solve, its
-    terminal model rebuilt at each solution until the nonlinear residual is below
-    tol_boundary (at least one solve). cold: start from the least-squares multipliers at z
-    instead of lam (`DenseKKT.first_multipliers`, the augmented Lagrangian's own default; from
-    zero multipliers the first arc solve's path depended on the seed's last bits: 22 or 60
-    Newton iterations, or MAX_ITERATIONS inside the whole program, for seeds 4e-10 m/s apart;
-    29 to 34 for each from these). Returns (z, lam, status, dD/dt_s (s/s), miss (m),
-    [residuals], solves, Newton iterations, d[r, v](t_f)/d[r, v](t_e) (6, 6) SI)."""
-    ocp0, ok_start = _arc_ocp(p, t_s, z[-1], max_duration)
-    model, resid, miss, ok = _end_model(z, ocp0, grid)
-    first = DenseKKT(ocp0.replace(params=dict(ocp0.params, model=model)), grid, z)
-    lam = jnp.where(cold, first.first_multipliers(z), lam)
+def _solve_arc(p, grid, t_s, z, lam, penalty, max_duration, options, cold):
+    """Minimum D for burn start t_s from (z, lam, the path penalty's multipliers): the
+    augmented-Lagrangian arc solve, its terminal model rebuilt at each solution until the
+    nonlinear residual is below tol_boundary (at least one solve). cold: start from the
+    least-squares multipliers at z, those of the unit-direction path equality with them
+    (`jaxlpm.nlp.augmented_lagrangian.least_squares_start`: from nu = 0 the first Hessian
+    is singular across the directions, and the 20-node burn's first step was decided by
+    round-off), instead of the given ones. Returns (z, lam, penalty, status, dD/dt_s (s/s),
+    miss (m), [residuals], solves, Newton iterations, d[r, v](t_f)/d[r, v](t_e) (6, 6) SI,
+    the state at t_s).
+
+    One loop: each pass builds the model at z, then solves with it unless the boundary has
+    converged (after at least one solve), the solves are spent or a step failed; so the
+    program holds one model (its coast with its Jacobian, and the second-order variational
+    integration; issue 21: two copies made the burn's program half as large again). Each
+    solve starts from the last one's multipliers, nu included, with rho reset to rho0."""
+    x_s, ok_start = _start(p, t_s)
+    ocp0 = _arc_ocp(p, t_s, x_s, z[-1], max_duration)
+    rho0 = jnp.asarray(options.al.rho0)
+
+    def solve(z, lam, penalty, model, k):
+        ocp = ocp0.replace(params=dict(ocp0.params, model=model), sf=z[-1])
+        lam, penalty = jax.lax.cond(cold & (k == 0),
+                                    lambda: least_squares_start(ocp, grid, z, rho0),
+                                    lambda: (lam, penalty))
+        res = augmented_lagrangian(ocp, grid, z, lam, options=options.al, penalty0=penalty)
+        finite = jnp.all(jnp.isfinite(res.z)) & jnp.all(jnp.isfinite(res.multipliers))
+        keep = lambda new, old: jax.tree_util.tree_map(lambda a, b: jnp.where(finite, a, b),
+                                                       new, old)
+        status = jnp.where(finite, res.status, Status.NONFINITE).astype(jnp.int32)
+        residuals = jnp.stack([res.constraint_residual, res.path_residual,
+                               res.stationarity_residual])
+        warm = dataclasses.replace(res.path_multipliers, rho=rho0)
+        return (keep(res.z, z), keep(res.multipliers, lam), keep(warm, penalty), status,
+                res.inner_iterations.astype(jnp.int32), residuals)
 
     def step(c):
-        z, lam, model, k, _, _, _, inner, residuals = c
-        ocp = ocp0.replace(params=dict(ocp0.params, model=model), sf=z[-1])
-        res = augmented_lagrangian(ocp, grid, z, lam, options=options.al)
-        new_model, resid, miss, ok = _end_model(res.z, ocp0, grid)
-        finite = jnp.all(jnp.isfinite(res.z)) & jnp.isfinite(resid) & ok & ok_start
-        keep = lambda new, old: jnp.where(finite, new, old)
-        status = jnp.where(finite, res.status, Status.NONFINITE).astype(jnp.int32)
-        new_res = jnp.stack([res.constraint_residual, res.path_residual,
-                             res.stationarity_residual])
-        return (keep(res.z, z), keep(res.multipliers, lam),
-                jax.tree_util.tree_map(keep, new_model, model), k + 1, status,
-                keep(resid, jnp.inf), keep(miss, jnp.inf), inner + res.inner_iterations,
-                keep(new_res, residuals))
+        z, lam, penalty, model, k, status, _, _, inner, residuals, _ = c
+        new_model, resid, miss, ok = _end_model(z, ocp0, grid)
+        ok = ok & ok_start & jnp.isfinite(resid)
+        model = jax.tree_util.tree_map(lambda new, old: jnp.where(ok, new, old), new_model,
+                                       model)
+        resid, miss = jnp.where(ok, resid, jnp.inf), jnp.where(ok, miss, jnp.inf)
+        status = jnp.where(ok, status, Status.NONFINITE).astype(jnp.int32)
+        more = ((status == Status.SUCCESS) & (k < options.max_models)
+                & ((k == 0) | (resid > options.tol_boundary)))
+        z, lam, penalty, status, n_inner, residuals = jax.lax.cond(
+            more, solve, lambda z, lam, penalty, model, k: (
+                z, lam, penalty, status, jnp.asarray(0, jnp.int32), residuals),
+            z, lam, penalty, model, k)
+        return (z, lam, penalty, model, k + more, status, resid, miss, inner + n_inner,
+                residuals, more)
 
-    def cond(c):
-        k, status, resid = c[3], c[4], c[5]
-        return (k == 0) | ((k < options.max_models) & (status == Status.SUCCESS)
-                           & (resid > options.tol_boundary))
-
-    status0 = jnp.where(ok & ok_start, Status.SUCCESS, Status.NONFINITE).astype(jnp.int32)
-    init = (z, lam, model, jnp.asarray(0, jnp.int32), status0, resid, miss,
-            jnp.asarray(0, jnp.int32), jnp.full(3, jnp.inf))
-    z, lam, model, k, status, resid, miss, inner, residuals = jax.lax.while_loop(
-        cond, step, init)
+    zero = jnp.asarray(0, jnp.int32)
+    init = (z, lam, penalty, ocp0.params["model"], zero, jnp.asarray(Status.SUCCESS, jnp.int32),
+            jnp.inf, jnp.inf, zero, jnp.full(3, jnp.inf), jnp.asarray(True))
+    z, lam, penalty, model, k, status, resid, miss, inner, residuals, _ = jax.lax.while_loop(
+        lambda c: c[-1], step, init)
     status = jnp.where((status == Status.SUCCESS) & (resid > options.tol_boundary),
                        Status.MAX_ITERATIONS, status).astype(jnp.int32)
     # envelope theorem: dD*/dt_s = T lambda_b . dc_b/dt_s (module docstring)
     dc = jnp.concatenate([-_rate(ocp0.params["x_s"], p) / _scales(p), -model["v_f"] / LENGTH])
     sensitivity = jnp.concatenate([model["A"], model["dv_dx"]])
-    return (z, lam, status, p["T"] * jnp.dot(lam[-9:], dc), miss, residuals, k, inner,
-            sensitivity)
+    return (z, lam, penalty, status, p["T"] * jnp.dot(lam[-9:], dc), miss, residuals, k,
+            inner, sensitivity, x_s)
 
 
 def arc_accuracy(ocp, grid, X, U, sf, sensitivity):
@@ -325,40 +366,42 @@ def _finite_burn(problem: FiniteBurnIntercept, grid, options: FiniteBurnOptions,
          "mass_rate": problem.mass_rate, "T": T}
     half_width = options.search_half_width * T
     lo, hi = t_s0 - half_width, t_s0 + half_width
-    z0 = _guess_z(_arc_ocp(p, t_s0, jnp.asarray(1.0), problem.max_duration)[0], grid,
-                  dv_impulse / jnp.where(dv > 0.0, dv, 1.0))
+    # x_s is not needed for the guess (`_guess_z` coasts from state0)
+    ocp0 = _arc_ocp(p, t_s0, ip.state0, jnp.asarray(1.0), problem.max_duration)
+    z0 = _guess_z(ocp0, grid, dv_impulse / jnp.where(dv > 0.0, dv, 1.0))
 
     def cond(c):
-        k, t_a, _, t_b, _, _, _, st = c[:8]
+        k, t_a, _, t_b, _, _, _, _, st = c[:9]
         return (k < 2) | ((k < options.search_iterations) & (st == Status.SUCCESS)
                           & (jnp.abs(t_b - t_a) > options.search_tol))
 
     def body(c):
-        k, t_a, g_a, t_b, g_b, z, lam, _, _, _, solves, inner, _ = c
+        k, t_a, g_a, t_b, g_b, z, lam, penalty, _, _, _, solves, inner, _, _ = c
         slope = (g_b - g_a) / jnp.where(t_b != t_a, t_b - t_a, 1.0)
         secant = jnp.where(slope > 0, t_b - g_b / jnp.where(slope > 0, slope, 1.0),
                            t_b - jnp.sign(g_b) * 0.5 * half_width)
         probe = t_b - jnp.sign(g_b) * 1.0                # 1 s downhill of eq. (2)'s start
         t_new = jnp.clip(jnp.select([k == 0, k == 1], [t_s0, probe], secant), lo, hi)
-        z, lam, st, g, miss, res, n_solves, n_inner, sens = _solve_arc(
-            p, grid, t_new, z, lam, problem.max_duration, options, k == 0)
-        return (k + 1, t_b, g_b, t_new, g, z, lam, st, miss, res, solves + n_solves,
-                inner + n_inner, sens)
+        z, lam, penalty, st, g, miss, res, n_solves, n_inner, sens, x_s = _solve_arc(
+            p, grid, t_new, z, lam, penalty, problem.max_duration, options, k == 0)
+        return (k + 1, t_b, g_b, t_new, g, z, lam, penalty, st, miss, res, solves + n_solves,
+                inner + n_inner, sens, x_s)
 
     zero = jnp.asarray(0.0)
     init = (jnp.asarray(0, jnp.int32), t_s0, zero, t_s0, zero, z0,
-            jnp.zeros(n_multipliers(grid)), jnp.asarray(Status.SUCCESS, jnp.int32), zero,
+            jnp.zeros(n_multipliers(grid)), start_penalty(ocp0, grid, options.al.rho0, z0.dtype),
+            jnp.asarray(Status.SUCCESS, jnp.int32), zero,
             jnp.zeros(3), jnp.asarray(0, jnp.int32), jnp.asarray(0, jnp.int32),
-            jnp.zeros((6, 6)))
+            jnp.zeros((6, 6)), ip.state0)
     # no search without a seed that fits (unbatched, the branch is skipped)
-    k, t_a, _, t_s, g, z, lam, status, miss, res, n_solves, inner, sens = jax.lax.cond(
+    k, t_a, _, t_s, g, z, lam, _, status, miss, res, n_solves, inner, sens, x_s = jax.lax.cond(
         search, lambda c: jax.lax.while_loop(cond, body, c), lambda c: c, init)
     status = jnp.where((status == Status.SUCCESS) & (jnp.abs(t_s - t_a) > options.search_tol),
                        Status.MAX_ITERATIONS, status)
     status = jnp.select([~valid, seed_status != Status.SUCCESS, ~fits],
                         [Status.INVALID_INPUT, seed_status, Status.INFEASIBLE],
                         status).astype(jnp.int32)
-    ocp, _ = _arc_ocp(p, t_s, z[-1], problem.max_duration)
+    ocp = _arc_ocp(p, t_s, x_s, z[-1], problem.max_duration)
     X, U, sf = unpack(z, ocp, grid)
     duration = T * sf
     accuracy = arc_accuracy(ocp, grid, X, U, sf, sens)

@@ -47,7 +47,7 @@ import jax.numpy as jnp
 
 from ..compilation import compiled
 from ..constants import MU_EARTH
-from ..dynamics.propagation import EPHEMERIS, propagate
+from ..dynamics.propagation import COAST_TANGENT, EPHEMERIS, propagate
 from ..implicit import root
 from ..orbits.lambert import lambert
 from ..problems.intercept import ImpulsiveIntercept
@@ -97,13 +97,14 @@ def lambert_seed(problem: ImpulsiveIntercept, r_burn, v_pre, tof):
 
 
 def aim_point_iteration(problem: ImpulsiveIntercept, t_burn, revolutions, branch,
-                        iterations: int, accumulate: bool = False):
+                        iterations: int, accumulate=False):
     """Tan 2011 steps 1-5 for `iterations` Lambert re-aims at fixed (t_burn, revolutions,
     branch).
 
     Returns (dv (iterations + 1, 3), miss vectors (iterations + 1, 3)): row 0 is step 1 (aim
     at r*), row k the k-th re-aim. accumulate=False is the paper as printed (aim = r* - L_m,
-    L_m the latest miss); True accumulates the corrections (aim -= L_m)."""
+    L_m the latest miss); True accumulates the corrections (aim -= L_m). accumulate may be
+    traced: one compiled program serves both."""
     rb_vb, _ = burn_state(problem, t_burn)
     rb, vb = rb_vb[:3], rb_vb[3:]
     tof = problem.duration - t_burn
@@ -123,30 +124,35 @@ def aim_point_iteration(problem: ImpulsiveIntercept, t_burn, revolutions, branch
     return dvs, misses
 
 
-def _end(v, rb, tof, mu, j2, r_eq):
-    return propagate(jnp.concatenate([rb, v]), tof, mu, j2, r_eq)[0]
-
-
 def _miss(v, rb, tof, target, mu, j2, r_eq):
-    return _end(v, rb, tof, mu, j2, r_eq)[:3] - target
+    return propagate(jnp.concatenate([rb, v]), tof, mu, j2, r_eq)[0][:3] - target
 
 
 @root(_miss, has_aux=True, zero_nonfinite=True)
 def _newton(v_init, rb, tof, target, mu, j2, r_eq):
     """Newton on the post-burn velocity: v <- v - J^-1 miss(v), J = d miss / dv (autodiff).
-    Returns (v, (final state [r, v] (6,), iterations))."""
-    f = lambda v: _miss(v, rb, tof, target, mu, j2, r_eq)
+    Returns (v, (final state [r, v] (6,), iterations)).
 
-    def cond(c):
-        _, end, it = c
-        return (it < NEWTON_ITERATIONS) & (jnp.linalg.norm(end[:3] - target) > MISS_TOL)
+    Each pass of one loop coasts from v with the three tangents of J (forward mode,
+    `COAST_TANGENT`: the COAST integration itself), then stops at a miss below MISS_TOL or
+    after NEWTON_ITERATIONS steps, else steps: the program holds one coast (issue 21)."""
+    def end_and_jacobian(v):
+        def position(v):
+            end, _ = propagate(jnp.concatenate([rb, v]), tof, mu, j2, r_eq,
+                               integrator=COAST_TANGENT)
+            return end[:3], end
+        return jax.jacfwd(position, has_aux=True)(v)
 
     def body(c):
-        v, end, it = c
-        v = v - jnp.linalg.solve(jax.jacrev(f)(v), end[:3] - target)
-        return v, _end(v, rb, tof, mu, j2, r_eq), it + 1
+        v, _, it, _ = c
+        jac, end = end_and_jacobian(v)
+        miss = jnp.linalg.norm(end[:3] - target)
+        done = ~(miss > MISS_TOL) | (it >= NEWTON_ITERATIONS)          # also a non-finite miss
+        v = jnp.where(done, v, v - jnp.linalg.solve(jac, end[:3] - target))
+        return v, end, it + jnp.where(done, 0, 1), done
 
-    v, end, it = jax.lax.while_loop(cond, body, (v_init, _end(v_init, rb, tof, mu, j2, r_eq), 0))
+    v, end, it, _ = jax.lax.while_loop(lambda c: ~c[3], body,
+                                       (v_init, jnp.zeros(6), 0, jnp.asarray(False)))
     return v, (end, it)
 
 
@@ -168,6 +174,13 @@ class Shot(NamedTuple):
     @property
     def dv(self):
         return self.v_post - self.burn_state[3:]
+
+    @classmethod
+    def empty(cls) -> "Shot":
+        """Zeros of a shot's shapes and dtypes (float64, counts and statuses int32): the
+        initial carry of a loop of shots."""
+        f, i = jnp.zeros, lambda: jnp.asarray(0, jnp.int32)
+        return cls(f(6), f(3), f(6), f(()), i(), i(), i(), i(), i())
 
 
 def shoot(problem: ImpulsiveIntercept, t_burn) -> Shot:
@@ -195,36 +208,47 @@ def _impulse(problem, t_burn):
 def optimise_burn_time(problem: ImpulsiveIntercept):
     """Minimise |dv(t_b)| on the window problem.burn_time = [t_lo, t_hi] (s) by the safeguarded
     secant method on the autodiff derivative g = d|dv|/dt_b (module docstring). Returns
-    (t_b, the shot there, g there, iterations, converged: the bracket below SEARCH_TOL).
+    (t_b, the shot there, g there, secant steps, converged: the bracket below SEARCH_TOL).
     Not an optax loop (issue 23): this is a 1-D root of g in a bracket, which the secant
     closes superlinearly (tan2011: 10 steps from a 1000 s window to 1e-4 s) and never
     leaves; a first-order optax optimiser needs a learning rate in seconds and converges
-    linearly, with no bracket to keep t_b inside the window."""
+    linearly, with no bracket to keep t_b inside the window.
+
+    One loop evaluates g at t_lo (pass 0), t_hi (pass 1), then at the secant points, and
+    carries the shot at each end of the bracket: the program holds one copy of the shot and
+    its derivative (issue 21: four copies, 77 882 StableHLO lines, were 88 s of a cold
+    `jaxlpm reproduce tan2011`)."""
     grad = jax.value_and_grad(lambda t: _impulse(problem, t), has_aux=True)
     t_lo, t_hi = problem.burn_time[0], problem.burn_time[1]
 
     def cond(c):
         lo, hi, *_, it = c
-        return (it < SEARCH_ITERATIONS) & (hi - lo > SEARCH_TOL)
+        return (it < 2) | ((it < SEARCH_ITERATIONS + 2) & (hi - lo > SEARCH_TOL))
 
     def body(c):
-        lo, hi, glo, ghi, it = c
+        lo, hi, glo, ghi, shot_lo, shot_hi, it = c
         t = lo - glo * (hi - lo) / (ghi - glo)
         t = jnp.where((t > lo) & (t < hi), t, 0.5 * (lo + hi))
         # keep the secant from stalling at one end: never closer than 1% of the bracket
         width = hi - lo
         t = jnp.clip(t, lo + 0.01 * width, hi - 0.01 * width)
-        _, g = grad(t)
-        lo, glo = jnp.where(g < 0, t, lo), jnp.where(g < 0, g, glo)
-        hi, ghi = jnp.where(g < 0, hi, t), jnp.where(g < 0, ghi, g)
-        return lo, hi, glo, ghi, it + 1
+        t = jnp.select([it == 0, it == 1], [t_lo, t_hi], t)
+        (_, shot), g = grad(t)
+        shot = jax.tree_util.tree_map(lambda new, old: new.astype(old.dtype), shot, shot_lo)
+        at_lo = jnp.where(it < 2, it == 0, g < 0)
+        pick = lambda a, b: jax.tree_util.tree_map(
+            lambda x, y: jnp.where(at_lo, x, y), a, b)
+        lo, glo, shot_lo = pick((t, g, shot), (lo, glo, shot_lo))
+        hi, ghi, shot_hi = pick((hi, ghi, shot_hi), (t, g, shot))
+        return lo, hi, glo, ghi, shot_lo, shot_hi, it + 1
 
-    _, glo = grad(t_lo)
-    _, ghi = grad(t_hi)
-    lo, hi, glo, ghi, it = jax.lax.while_loop(cond, body, (t_lo, t_hi, glo, ghi, 0))
-    t = jnp.where(jnp.abs(glo) < jnp.abs(ghi), lo, hi)
-    (_, shot), g = grad(t)
-    return t, shot, g, it, hi - lo <= SEARCH_TOL
+    shot0 = Shot.empty()
+    lo, hi, glo, ghi, shot_lo, shot_hi, it = jax.lax.while_loop(
+        cond, body, (t_lo, t_hi, jnp.asarray(0.0), jnp.asarray(0.0), shot0, shot0, 0))
+    low = jnp.abs(glo) < jnp.abs(ghi)
+    t, g = jnp.where(low, lo, hi), jnp.where(low, glo, ghi)
+    shot = jax.tree_util.tree_map(lambda x, y: jnp.where(low, x, y), shot_lo, shot_hi)
+    return t, shot, g, it - 2, hi - lo <= SEARCH_TOL
 
 
 def coast_accuracy(problem: ImpulsiveIntercept, t_burn, shot):

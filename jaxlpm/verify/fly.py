@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ..compilation import compiled
 from .._validation import is_concrete, require_x64
@@ -177,15 +178,16 @@ def _plan_difference(solution, ts, xs):
 
 
 def _plan(solution):
-    """The solution whose states `_plan_difference` evaluates: a concrete one on an LGL `Grid`
-    with its trajectory padded, its stats and method left out (`Collocated.padded`), so that one
-    program serves every grid and method up to the capacity (mei2010 flies 16 solutions of
-    2 laws on 7 grids)."""
+    """The solution whose states `_plan_difference` evaluates: a concrete one with its stats
+    and method left out, and on an LGL `Grid` with its trajectory padded
+    (`Collocated.padded`), so that one program serves every grid and method up to the
+    capacity (mei2010 flies 16 solutions of 2 laws on 7 grids)."""
     tr = solution.trajectory
-    if (isinstance(tr, Collocated) and type(tr.grid) is Grid and tr.grid.scheme == "LGL"
-            and is_concrete(solution) and jnp.ndim(solution.status) == 0):
-        return solution.replace(trajectory=tr.padded(), stats={}, method="")
-    return solution
+    if not (is_concrete(solution) and jnp.ndim(solution.status) == 0):
+        return solution
+    if isinstance(tr, Collocated) and type(tr.grid) is Grid and tr.grid.scheme == "LGL":
+        tr = tr.padded()
+    return solution.replace(trajectory=tr, stats={}, method="")
 
 
 def default_model(problem) -> str:
@@ -234,17 +236,24 @@ def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
     return one(solution, j2, r_eq)
 
 
-@compiled(static_argnames="n_save")
+_fly_burn = compiled(fly_burn)
+"""`fly_burn` compiled once per burn kind (impulse or engine, its direction padded by
+`jaxlpm.solution.control_interpolant`) and number of samples, whatever the grid's size; the
+program a script that samples a burn with `compiled(fly_burn)` at as many times also runs."""
+
+
 def _fly_intercept(solution, j2, n_save):
-    """One intercept flight: (times, [r, v] states, terminal error, plan error, status)."""
+    """One intercept flight: (times, [r, v] states, terminal error, status); the flight by
+    `_fly_burn`, the rest on the host where nothing is traced."""
     tr = solution.trajectory
-    ts = jnp.linspace(0.0, 1.0, n_save) * solution.duration
-    ys, ok = fly_burn(tr.state0, tr.burn(), solution.duration, ts, tr.mu, j2, tr.r_eq)
-    xs = ys[:, :6]
-    miss = jnp.linalg.norm(xs[-1, :3] - solution.problem.r_target)
-    status = jnp.where(ok, Status.SUCCESS, Status.NONFINITE).astype(jnp.int32)
-    return (ts, xs, jnp.stack([miss, jnp.zeros_like(miss)]),
-            _largest_difference(xs, solution.states(ts)), status)
+    xp = np if is_concrete(solution) else jnp
+    ts = xp.linspace(0.0, 1.0, n_save) * xp.asarray(solution.duration)
+    ys, ok = _fly_burn(tr.state0, tr.burn(), solution.duration, ts, tr.mu, j2, tr.r_eq)
+    xs = xp.asarray(ys)[:, :6]
+    miss = xp.linalg.norm(xs[-1, :3] - xp.asarray(solution.problem.r_target))
+    status = xp.where(xp.asarray(ok), Status.SUCCESS, Status.NONFINITE).astype(xp.int32)
+    return (jnp.asarray(ts), jnp.asarray(xs), jnp.asarray(xp.stack([miss, 0.0 * miss])),
+            jnp.asarray(status))
 
 
 def _fly_inertial(solution, model, n_save) -> Flight:
@@ -255,7 +264,8 @@ def _fly_inertial(solution, model, n_save) -> Flight:
 
     def one(sol):
         j2 = sol.trajectory.j2 if model == "j2" else jnp.zeros_like(sol.trajectory.j2)
-        return Flight(*_fly_intercept(sol, j2, n_save), model)
+        ts, xs, err, status = _fly_intercept(sol, j2, n_save)
+        return Flight(ts, xs, err, _plan_difference(_plan(sol), ts, xs), status, model)
 
     for _ in range(jnp.ndim(solution.status)):
         one = jax.vmap(one)
