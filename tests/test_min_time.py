@@ -23,6 +23,7 @@ from jaxlpm.problems import MinimumTimeTransfer
 from jaxlpm.problems.min_time import duration_lower_bound, min_time_ocp, state_scale
 from jaxlpm.nlp.transcription import collocated_rows, pack, state_tau, unpack
 from jaxlpm.nlp import augmented_lagrangian
+from jaxlpm.nlp.augmented_lagrangian import least_squares_start
 from jaxlpm.verify import min_time_shooting
 
 # after jaxlpm, which sets one OpenBLAS thread unless scipy has already loaded it (its pool
@@ -402,6 +403,54 @@ def test_augmented_lagrangian_bounded_control_matches_exact_optimum():
     exact = _saturated_cost(umax)
     np.testing.assert_allclose(cost, exact, rtol=1e-5)
     assert exact > 6.0        # the unconstrained optimum, 1/2 int (6 (1 - 2t))^2 = 6
+
+
+def _planar_double_integrator(s, x, u, d, p):
+    return jnp.concatenate([x[2:], u])
+
+
+def _no_cost(s, x, u, d, p):
+    return 0.0 * s
+
+
+def _elapsed_time(x0, xf, sf, p):
+    return sf
+
+
+def _from_rest_to_a_point(x0, xf, sf, p):
+    return jnp.concatenate([x0, xf[:2] - jnp.array([1.0, 0.5])])
+
+
+def _unit_control(s, x, u, d, p):
+    return jnp.dot(u, u)[None] - 1.0
+
+
+def test_least_squares_start_recovers_the_multipliers_at_the_solution():
+    """`least_squares_start` at a KKT point returns its multipliers, those of the path
+    equality with them. Minimum time from rest to a point at distance d with a unit
+    acceleration, final velocity free: u is constant along the line, t_f = sqrt(2 d) (exact on
+    any grid: the states are quadratic in t), and nu = -lambda_v . u / 2 is not zero at any
+    LGR point (lambda_v falls linearly to 0 at t_f, which LGR leaves out). At a solution stationary to ~1e-10 (the inner Newton's tolerance) the least-squares
+    system, of full row rank here, gives the solver's multipliers to ~1e-8."""
+    grid = lpm.lgr(8)
+    ocp = OptimalControlProblem(n_x=4, n_u=2, dynamics=_planar_double_integrator,
+                                running_cost=_no_cost, boundary=_from_rest_to_a_point,
+                                s0=jnp.asarray(0.0), sf=jnp.asarray(1.0), params={},
+                                terminal_cost=_elapsed_time, free_final=True,
+                                path_equality=_unit_control)
+    rows = state_tau(grid).shape[0]
+    z0 = pack(jnp.zeros((rows, 4)), jnp.tile(jnp.array([0.6, 0.8]), (grid.n, 1)), 1.0, ocp)
+    res = quick(lambda o, z: augmented_lagrangian(o, grid, z), ocp, z0)
+    assert int(res.status) == Status.SUCCESS
+    np.testing.assert_allclose(float(res.z[-1]), np.sqrt(2.0 * np.hypot(1.0, 0.5)), rtol=1e-9)
+    lam, penalty = quick(lambda o, z: least_squares_start(o, grid, z, 10.0), ocp, res.z)
+    nu = np.asarray(penalty.equality)
+    np.testing.assert_allclose(nu, np.asarray(res.path_multipliers.equality), rtol=1e-6,
+                               atol=1e-9)
+    assert np.min(np.abs(nu)) > 1e-4       # weighted, and falling with lambda_v towards t_f
+    np.testing.assert_allclose(np.asarray(lam), np.asarray(res.multipliers), rtol=1e-6,
+                               atol=1e-8)
+    assert float(penalty.rho) == 10.0 and penalty.inequality.size == 0
 
 
 def test_newton_refuses_path_constraints():
