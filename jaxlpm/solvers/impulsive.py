@@ -210,7 +210,7 @@ def optimise_burn_time(problem: ImpulsiveIntercept):
     secant method on the autodiff derivative g = d|dv|/dt_b (module docstring). Returns
     (t_b, the shot there, g there, secant steps, converged: the bracket below SEARCH_TOL).
     Not an optax loop (issue 23): this is a 1-D root of g in a bracket, which the secant
-    closes superlinearly (tan2011: 10 steps from a 1000 s window to 1e-4 s) and never
+    closes superlinearly (tan2011: 9 steps from a 1000 s window to 1e-4 s) and never
     leaves; a first-order optax optimiser needs a learning rate in seconds and converges
     linearly, with no bracket to keep t_b inside the window.
 
