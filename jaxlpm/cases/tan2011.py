@@ -180,6 +180,15 @@ def burn_samples(sol, n=N_SAVE):
     return np.asarray(ts), np.asarray(states)
 
 
+def burn_directions(control, ts):
+    """The flown unit direction (the renormalised interpolant `control`) at times ts (s):
+    (len(ts), 3); one compiled program for every node count (the interpolant is padded)."""
+    return jax.vmap(control)(ts)
+
+
+_burn_directions = compiled(burn_directions)
+
+
 def _timed_solve(*args):
     """(solution, first call s, steady call s): the first call includes compilation."""
     times = []
@@ -193,13 +202,15 @@ def _timed_solve(*args):
 def _finite_burns(prob, log):
     """Minimum-duration finite burns for NODES through `jaxlpm.solve`, initialised by eq. (2)
     from the exact impulsive solution at T_BURN; each flown from t = 0 by `jaxlpm.verify.fly`.
-    Returns (rows, solutions, burn samples)."""
+    Returns (rows, solutions, burn samples: (times, flown [r, v, m], flown directions))."""
     fb = finite_burn_problem(prob)
     rows, sols, samples = [], [], []
     for n in NODES:
         sol, first, steady = _timed_solve(fb, lgl(n))
         flight = verify.fly(sol)
         ts, states = burn_samples(sol)
+        directions = np.asarray(_burn_directions(sol.trajectory.flight_control(),
+                                                 jnp.asarray(ts)))
         st = sol.stats
         row = {"nodes": n, "points": n, "t_start": float(st["t_start"]),
                "duration": float(sol.cost), "t_end": float(st["t_end"]),
@@ -223,7 +234,7 @@ def _finite_burns(prob, log):
             f"compile, then {steady:.2f} s)")
         rows.append(row)
         sols.append(sol)
-        samples.append((ts, states))
+        samples.append((ts, states, directions))
     return rows, sols, samples
 
 
@@ -287,6 +298,10 @@ def compute(log=print):
 
     # finite burns (Table 3), from eq. (2) about the exact impulsive solution
     fb_rows, fb_sols, fb_samples = _finite_burns(prob, log)
+    # the transfer figure's samples, here so that a dry run compiles their programs
+    t_b = float(st["t_burn"])
+    _, post = verify_miss(rb, np.asarray(st["v_post"]), t_b, 2000)
+    pre = np.asarray(imp.states(np.linspace(0.0, t_b, 400, endpoint=False)))
 
     dv_norm = float(imp.cost)
     dm = float(imp.propellant(MASS, ISP))
@@ -342,7 +357,7 @@ def compute(log=print):
                                     T_BURN + MASS * dv_norm / (2 * THRUST)],
         },
     }
-    return prob, (imp, fb_sols, fb_samples), computed
+    return prob, (imp, fb_sols, fb_samples, pre, post), computed
 
 
 NOTES = [
@@ -412,11 +427,9 @@ def figures(prob, data, computed, out_dir):
 
     from .plots import _save
 
-    imp, fb_sols, fb_samples = data
+    imp, fb_sols, fb_samples, pre, ys = data
     c = computed["impulsive"]
     r_burn = np.asarray(imp.stats["r_burn"])
-    _, ys = verify_miss(r_burn, np.asarray(imp.stats["v_post"]), c["t_burn"], 2000)
-    pre = imp.states(np.linspace(0.0, c["t_burn"], 400, endpoint=False))
     fig, ax = plt.subplots(figsize=(6, 6))
     ax.plot(np.asarray(pre)[:, 0] / 1e3, np.asarray(pre)[:, 1] / 1e3, label="pre-burn coast")
     ax.plot(ys[:, 0] / 1e3, ys[:, 1] / 1e3, lw=0.8, label="post-burn J2 coast (Tsit5)")
@@ -448,8 +461,7 @@ def _finite_burn_figure(sols, samples, path):
     from .plots import _save
 
     fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
-    for sol, (ts, states) in zip(sols, samples):
-        u = np.asarray(jax.vmap(sol.trajectory.flight_control())(jnp.asarray(ts)))
+    for sol, (ts, states, u) in zip(sols, samples):
         nodes = np.asarray(sol.stats["node_directions"])
         times = np.asarray(sol.times)
         label = f"{sol.grid.n} nodes"
