@@ -430,8 +430,9 @@ def test_least_squares_start_recovers_the_multipliers_at_the_solution():
     equality with them. Minimum time from rest to a point at distance d with a unit
     acceleration, final velocity free: u is constant along the line, t_f = sqrt(2 d) (exact on
     any grid: the states are quadratic in t), and nu = -lambda_v . u / 2 is not zero at any
-    LGR point (lambda_v falls linearly to 0 at t_f, which LGR leaves out). At a solution stationary to ~1e-10 (the inner Newton's tolerance) the least-squares
-    system, of full row rank here, gives the solver's multipliers to ~1e-8."""
+    LGR point (lambda_v falls linearly to 0 at t_f, which LGR leaves out). At a solution
+    stationary to ~1e-10 (the inner Newton's tolerance) the least-squares system, of full row
+    rank here, gives the solver's multipliers to ~1e-8."""
     grid = lpm.lgr(8)
     ocp = OptimalControlProblem(n_x=4, n_u=2, dynamics=_planar_double_integrator,
                                 running_cost=_no_cost, boundary=_from_rest_to_a_point,
