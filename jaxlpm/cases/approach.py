@@ -28,7 +28,6 @@ from concurrent.futures import ThreadPoolExecutor
 import jax.numpy as jnp
 import numpy as np
 
-from ..compilation import prefetch
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
 from ..problems import EnergyOptimalTransfer, safety
@@ -41,7 +40,7 @@ from ..solvers.fuel_optimal import burn_arcs
 from ..solvers.fuel_optimal import refine_transfer as refine_fuel
 from ..solvers.refine import MeshLadder
 from ..status import Status
-from .result import finish
+from .result import finish, prefetch_case
 
 NAME = "approach"
 TITLE = ("jaxlpm approach: a safety-constrained V-bar approach and docking on an eccentric "
@@ -314,10 +313,8 @@ def reproduce(out_dir, log=print):
     zeros read as SUCCESS, so each refinement stops at its first mesh there and the later
     rungs compile when the real run reaches them), print, draw. Returns the JSON-ready
     result dict."""
-    t = time.perf_counter()
-    n = prefetch(lambda: compute(log=lambda msg: None, beside=False), log, wait=False)
-    log(f"traced the case's first programs in {time.perf_counter() - t:.1f} s; {n} compile two "
-        f"at a time while it runs (each solve waits for its own)")
+    prefetch_case(lambda: compute(log=lambda msg: None, beside=False), log,
+                  what="first programs")
     computed, data = compute(log)
     return finish(sys.modules[__name__], computed,
                   lambda out: figures(computed, data, out), out_dir, log)

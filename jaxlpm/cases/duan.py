@@ -32,14 +32,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..collocation import make_grid
-from ..compilation import prefetch
 from ..constants import MU_EARTH, R_EARTH
 from ..dynamics import hcw_flow
 from ..orbits import KeplerOrbit
 from ..problems import MinimumTimeTransfer
 from ..solvers import solve
 from ..status import Status
-from .result import finish
+from .result import finish, prefetch_case
 from ..verify import fly, min_time_shooting
 
 NAME = "duan"
@@ -321,10 +320,7 @@ def reproduce(out_dir, log=print):
     """Run the case: compute (its programs, a few per grid, traced first by a dry run,
     `jaxlpm.compilation.prefetch`, and compiled two at a time while it runs), print, draw.
     Returns the JSON-ready result dict."""
-    t = time.perf_counter()
-    n = prefetch(lambda: compute(log=lambda msg: None), log, wait=False)
-    log(f"traced the case's programs in {time.perf_counter() - t:.1f} s; {n} compile two "
-        f"at a time while it runs (each solve waits for its own)")
+    prefetch_case(lambda: compute(log=lambda msg: None), log)
     computed, data = compute(log)
     return finish(sys.modules[__name__], computed,
                   lambda out: figures(computed, data, out), out_dir, log)

@@ -18,13 +18,13 @@ import numpy as np
 
 from .._validation import require_x64
 from ..collocation import lgl
-from ..compilation import prefetch
 from ..constants import J2_EARTH, MU_EARTH, R_EARTH
 from ..orbits import KeplerOrbit
 from ..problems import MODELS, EnergyOptimalTransfer
 from ..solvers import solve
 from ..status import Status
 from ..verify import fly
+from .result import prefetch_case
 
 NAME = "mei2010"
 TITLE = "Mei, Ma & Yang 2010: LGL energy-optimal relative transfer on an elliptic orbit"
@@ -349,10 +349,7 @@ def reproduce(out_dir, log=print):
     """Run the case: compute (its programs traced first by a dry run,
     `jaxlpm.compilation.prefetch`, and compiled two at a time while it runs), print, draw.
     Returns the JSON-ready result dict."""
-    t = time.perf_counter()
-    n = prefetch(lambda: compute(log=lambda msg: None), log, wait=False)
-    log(f"traced the case's programs in {time.perf_counter() - t:.1f} s; {n} compile two "
-        f"at a time while it runs (each solve waits for its own)")
+    prefetch_case(lambda: compute(log=lambda msg: None), log)
     _, head, lin, nonlin, transfers, computed = compute(log)
     report(computed, log)
     out_dir.mkdir(parents=True, exist_ok=True)

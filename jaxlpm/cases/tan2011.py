@@ -28,13 +28,14 @@ and the rough solution's flight from the burn point) uses the lower-level functi
 (`jaxlpm.solvers.impulsive`, `jaxlpm.verify.inertial`).
 """
 
+import sys
 import time
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..compilation import compiled, prefetch
+from ..compilation import compiled
 from .. import verify
 from ..collocation import lgl
 from ..constants import G0, J2_EARTH, MU_EARTH, R_EARTH
@@ -47,6 +48,7 @@ from ..solvers.impulsive import aim_point_iteration, burn_state, lambert_candida
 from ..status import Status
 from ..verify.fly import N_SAVE
 from ..verify.inertial import fly, fly_burn
+from .result import finish, prefetch_case
 
 NAME = "tan2011"
 TITLE = ("Tan, Yan, Zhou & Tang 2011: J2 long-range intercept (Lambert + J2 aim-point "
@@ -488,14 +490,7 @@ def reproduce(out_dir, log=print):
     """Run the case: compute (its programs traced first by a dry run,
     `jaxlpm.compilation.prefetch`, and compiled two at a time while it runs), print, draw.
     Returns the JSON-ready result dict."""
-    t = time.perf_counter()
-    n = prefetch(lambda: compute(log=lambda msg: None), log, wait=False)
-    log(f"traced the case's programs in {time.perf_counter() - t:.1f} s; {n} compile two "
-        f"at a time while it runs (each solve waits for its own)")
+    prefetch_case(lambda: compute(log=lambda msg: None), log)
     prob, data, computed = compute(log)
-    report(computed, log)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    for path in figures(prob, data, computed, out_dir):
-        log(f"wrote {path}")
-    return {"schema_version": 1, "case": NAME, "published": PUBLISHED, "computed": computed,
-            "notes": NOTES}
+    return finish(sys.modules[__name__], computed,
+                  lambda out: figures(prob, data, computed, out), out_dir, log)
