@@ -15,8 +15,9 @@ import scipy.linalg
 import jaxlpm as lpm
 from jaxlpm import Status
 from jaxlpm.cases import mei2010
+from jaxlpm.collocation.padded import PaddedGrid, grid_rows, pad_grid
 from jaxlpm.dynamics import hcw_matrix
-from jaxlpm.nlp import OptimalControlProblem
+from jaxlpm.nlp import OptimalControlProblem, PathPenalty
 from jaxlpm.nlp import transcription as tr
 from jaxlpm.nlp import newton_kkt
 from jaxlpm.solvers.transfer import newton_transfer
@@ -81,17 +82,25 @@ MESHES = ("LGL-mesh", "LG-mesh", "LGR-mesh")
 
 def _grid(name, points, segment_points, breaks=MESH_BREAKS):
     """lpm.make_grid(name, points), or for "<scheme>-mesh" the scheme's mesh on `breaks`
-    with `segment_points` per segment."""
+    with `segment_points` per segment, or for "LGL-padded" lgl(points) padded with 5 rows
+    (`jaxlpm.collocation.padded`)."""
     if name.endswith("-mesh"):
         return lpm.make_mesh(name[:-5], len(breaks) - 1, segment_points, breaks)
+    if name == "LGL-padded":
+        return pad_grid(points, points + 5)
     return lpm.make_grid(name, points)
+
+
+def _live_rows(grid, values):
+    """A padded grid's result at the grid's own collocation points (others: as they are)."""
+    return values[grid_rows(int(grid.live), grid.n)] if isinstance(grid, PaddedGrid) else values
 
 
 @pytest.fixture(scope="module")
 def hcw_solutions():
     ocp = _hcw_ocp()
     out = {}
-    for scheme in ("LGL", "LG", "LGR") + MESHES:
+    for scheme in ("LGL", "LG", "LGR", "LGL-padded") + MESHES:
         grid = _grid(scheme, 16, 10)
         res = quick(lambda o, z: newton_kkt(o, grid, z), ocp,
                     jnp.zeros(tr.n_variables(ocp, grid)))
@@ -99,12 +108,13 @@ def hcw_solutions():
     return ocp, out
 
 
-@pytest.mark.parametrize("scheme", ["LGL", "LG", "LGR", *MESHES])
+@pytest.mark.parametrize("scheme", ["LGL", "LG", "LGR", "LGL-padded", *MESHES])
 def test_structured_derivatives_equal_autodiff(scheme):
     """The Jacobian and Lagrangian Hessian assembled from the collocation structure equal
     dense autodiff of the whole NLP (nonlinear dynamics, cost, boundary and terminal terms,
-    free final s, and on meshes the quadrature and linkage rows: every block the assembly
-    treats separately)."""
+    free final s, path constraints with their augmented-Lagrangian terms, on meshes the
+    quadrature and linkage rows, on a padded grid the padding's pinning rows and cost: every
+    block the assembly treats separately)."""
     def dyn(s, x, u, d, p):
         return jnp.concatenate([x[1:] * u[0], jnp.sin(x[:1]) + s * u[1] * x[0]])
 
@@ -117,11 +127,21 @@ def test_structured_derivatives_equal_autodiff(scheme):
     def term(x0, xf, sf, p):
         return sf**2 * xf[0] + x0[1] * xf[2]
 
+    def path(s, x, u, d, p):
+        return jnp.stack([x[0] * u[1] - 0.3, u[0] ** 2 - x[2]])
+
+    def unit(s, x, u, d, p):
+        return (u @ u - 1.0)[None]
+
     ocp = OptimalControlProblem(n_x=3, n_u=2, dynamics=dyn, running_cost=cost, boundary=bc,
                                 s0=jnp.array(0.2), sf=jnp.array(1.7), terminal_cost=term,
-                                free_final=True)
+                                free_final=True, path=path, path_equality=unit)
     grid = _grid(scheme, 5, 4, breaks=(-1.0, -0.2, 1.0))
     rng = np.random.default_rng(0)
+    ocp = ocp.replace(penalty=PathPenalty(
+        inequality=jnp.asarray(rng.uniform(0.0, 1.0, (grid.n, 2))),
+        equality=jnp.asarray(rng.normal(size=(grid.n, 1))), bounds=jnp.zeros(0),
+        rho=jnp.asarray(3.0)))
     z = jnp.asarray(rng.normal(size=tr.n_variables(ocp, grid))).at[-1].set(1.7)
     lam = jnp.asarray(rng.normal(size=tr.equality(z, ocp, grid).size))
 
@@ -144,8 +164,8 @@ def test_structured_derivatives_equal_autodiff(scheme):
 # 1.8e-7 (LGL): the LGL mesh's joins, from the linkage multipliers, are exact to 4e-15, but
 # LGL's interior estimates converge more slowly than Gauss's and Radau's (lgl(10) alone:
 # 1.3e-4; 3 x 14 points: 7e-13).
-COSTATE_RTOL = {"LGL": 1e-9, "LG": 1e-9, "LGR": 1e-9, "LGL-mesh": 1e-6, "LG-mesh": 1e-9,
-                "LGR-mesh": 1e-9}
+COSTATE_RTOL = {"LGL": 1e-9, "LG": 1e-9, "LGR": 1e-9, "LGL-padded": 1e-9, "LGL-mesh": 1e-6,
+                "LG-mesh": 1e-9, "LGR-mesh": 1e-9}
 
 
 @pytest.mark.parametrize("scheme", list(COSTATE_RTOL))
@@ -157,8 +177,8 @@ def test_costates_match_analytic_hcw(hcw_solutions, scheme):
     ocp, sols = hcw_solutions
     grid, res = sols[scheme]
     assert int(res.status) == Status.SUCCESS
-    lam = tr.costates(res.z, res.multipliers, ocp, grid)
-    exact = _hcw_analytic_costate(np.asarray(tr.collocation_s(ocp, grid)))
+    lam = _live_rows(grid, tr.costates(res.z, res.multipliers, ocp, grid))
+    exact = _hcw_analytic_costate(np.asarray(_live_rows(grid, tr.collocation_s(ocp, grid))))
     err = np.max(np.abs(lam - exact)) / np.max(np.abs(exact))
     print(scheme, "costate error", err)
     assert err < COSTATE_RTOL[scheme]
@@ -170,6 +190,27 @@ def test_linear_qp_converges_in_one_step(hcw_solutions):
     for grid, res in sols.values():
         assert int(res.status) == Status.SUCCESS and int(res.iterations) == 1
         assert float(res.constraint_residual) < 1e-12
+
+
+def test_padded_grid_solves_to_the_grid_s_own_solution(hcw_solutions):
+    """lgl(16) padded to 21 rows (one program for every grid up to the capacity): the grid's
+    own rows solve to the plain lgl(16) solution, and the padding is pinned (X_pad = X_last,
+    U_pad = 0, its defect multipliers 0). Both are the same QP's solution by one LU each:
+    equal to round-off (the KKT matrix's condition, ~1e3, times 1e-16)."""
+    ocp, sols = hcw_solutions
+    (grid, padded), (_, plain) = sols["LGL-padded"], sols["LGL"]
+    X, U, _ = tr.unpack(padded.z, ocp, grid)
+    X0, U0, _ = tr.unpack(plain.z, ocp, lpm.lgl(16))
+    rows = grid_rows(16, grid.n)
+    np.testing.assert_allclose(X[rows], X0, atol=1e-12 * np.max(np.abs(X0)))
+    np.testing.assert_allclose(U[rows], U0, atol=1e-12 * np.max(np.abs(U0)))
+    pad = np.setdiff1d(np.arange(grid.n), rows)
+    np.testing.assert_allclose(X[pad], np.broadcast_to(X[-1], X[pad].shape), atol=1e-14)
+    np.testing.assert_allclose(U[pad], 0.0, atol=1e-14)
+    Lam = padded.multipliers[:grid.n * 6].reshape(grid.n, 6)
+    np.testing.assert_allclose(Lam[pad], 0.0, atol=1e-12)
+    np.testing.assert_allclose(Lam[rows], plain.multipliers[:16 * 6].reshape(16, 6),
+                               atol=1e-11 * np.max(np.abs(Lam)))
 
 
 def test_free_final_time_double_integrator():

@@ -182,6 +182,11 @@ def test_finite_burn_converges_and_flies_to_target(case, burn):
     fb, sol = burn
     assert sol.frame == "inertial" and bool(sol.success), sol.message
     st = sol.stats
+    # solved on lgl(5) padded to 21 points (one program for every grid up to it), returned on
+    # lgl(5) itself
+    assert type(sol.trajectory.grid) is lpm.Grid and sol.trajectory.grid.n == 5
+    assert sol.node_states.shape == (5, 6)
+    assert np.shape(st["node_directions"]) == (5, 3) and np.shape(st["node_masses"]) == (5,)
     # seeded internally by the impulsive solution (eq. 2), compiled into the burn's program
     # (so equal to the impulsive solve's to round-off, 2e-15 measured)
     np.testing.assert_allclose(np.asarray(st["seed_dv"]), np.asarray(imp.stats["dv"]),

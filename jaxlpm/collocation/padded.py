@@ -47,9 +47,9 @@ jax.tree_util.register_pytree_node(
     lambda n, leaves: PaddedGrid("LGL", n, *leaves))
 
 
-def capacity(n: int) -> int:
-    """The capacity lgl(n) is padded to: MIN_CAPACITY, or the next 2^k + 1 above it."""
-    m = MIN_CAPACITY
+def capacity(n: int, minimum: int = MIN_CAPACITY) -> int:
+    """The capacity lgl(n) is padded to: `minimum` (2^k + 1), or the next 2^k + 1 above it."""
+    m = minimum
     while m < n:
         m = 2 * (m - 1) + 1
     return m

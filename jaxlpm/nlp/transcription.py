@@ -12,6 +12,13 @@ Path constraints g <= 0, h = 0 are imposed at the collocation points (where the 
 the final-s bounds on sf; with a `PathPenalty` (the augmented-Lagrangian solver's inner
 problems) the objective carries their augmented-Lagrangian terms.
 
+On a `PaddedGrid` (lgl(n) held at a fixed capacity, `jaxlpm.collocation.padded`: one
+compiled program for every n up to it) the padding's unknowns are pinned so that the KKT
+matrix stays regular and the grid's own solution is unchanged: a padding row's defect is
+X_pad - X_last (its dynamics are not evaluated into any row), its control enters the cost as
+|U_pad|^2 / 2 (it solves to 0), and its path values are constants (H = 0, G = -1), so its
+multipliers are 0 at every KKT point.
+
 Costate estimates (Garg et al. 2010, Benson et al. 2006): with the Lagrangian J + Lambda^T c,
 lambda(tau_i) = -Lambda_i / w_i at the collocation points (LG: -(Lambda_i / w_i + Lambda_F),
 Lambda_F the quadrature row's multiplier). They converge for LG and LGR; LGL's do not converge
@@ -22,6 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..collocation.padded import padding
 from ..collocation.segments import Mesh
 from .ocp import OptimalControlProblem
 
@@ -142,6 +150,9 @@ def objective(z, ocp: OptimalControlProblem, grid):
     J = h * jnp.dot(grid.weights, _pointwise(ocp.running_cost, ocp, grid, X, U, sf))
     if ocp.terminal_cost is not None:
         J = J + ocp.terminal_cost(X[0], X[-1], sf, ocp.params)
+    pad = padding(grid)
+    if pad is not None:
+        J = J + 0.5 * jnp.sum(jnp.where(pad[:, None], U, 0.0) ** 2)
     if ocp.penalty is not None:
         G, H, B = path_values(z, ocp, grid)
         P = ocp.penalty
@@ -162,11 +173,21 @@ def phr_equality(h, nu, rho):
     return nu * h + 0.5 * rho * h**2
 
 
-def _point_values(fun, ocp, grid, X, U, sf):
-    """fun's values (n, n_fun) at the collocation points; (n, 0) when fun is None."""
+def _point_values(fun, ocp, grid, X, U, sf, fill=0.0):
+    """fun's values (n, n_fun) at the collocation points; (n, 0) when fun is None; `fill` on
+    a `PaddedGrid`'s padding."""
     if fun is None:
         return jnp.zeros((grid.n, 0), X.dtype)
-    return _pointwise(fun, ocp, grid, X, U, sf).reshape(grid.n, -1)
+    return _live(grid, _pointwise(fun, ocp, grid, X, U, sf).reshape(grid.n, -1), fill)
+
+
+def _live(grid, values, fill=0.0):
+    """values (n, ...) per collocation point with a `PaddedGrid`'s padding rows set to
+    `fill` (no derivative flows from them); values unchanged on any other grid."""
+    pad = padding(grid)
+    if pad is None:
+        return values
+    return jnp.where(pad.reshape(-1, *(1,) * (values.ndim - 1)), fill, values)
 
 
 def path_values(z, ocp: OptimalControlProblem, grid):
@@ -174,7 +195,7 @@ def path_values(z, ocp: OptimalControlProblem, grid):
     equality values at the collocation points and the final-s bounds [sf_min - sf, sf - sf_max]
     (an infinite bound gives the constant -1: never active, and no inf in any derivative)."""
     X, U, sf = unpack(z, ocp, grid)
-    G = _point_values(ocp.path, ocp, grid, X, U, sf)
+    G = _point_values(ocp.path, ocp, grid, X, U, sf, fill=-1.0)
     H = _point_values(ocp.path_equality, ocp, grid, X, U, sf)
     if ocp.final_bounds is None:
         B = jnp.zeros(0, z.dtype)
@@ -189,8 +210,11 @@ def defects(z, ocp: OptimalControlProblem, grid):
     per segment) and the linkage rows L X (an `LGLMesh`'s interior breaks), (q + p, n_x)."""
     X, U, sf = unpack(z, ocp, grid)
     h = 0.5 * (sf - ocp.s0)
-    F = _pointwise(ocp.dynamics, ocp, grid, X, U, sf)
+    F = _live(grid, _pointwise(ocp.dynamics, ocp, grid, X, U, sf))
     rows = [differentiate(grid, X) - h * F]
+    pad = padding(grid)
+    if pad is not None:
+        rows[0] = rows[0] + jnp.where(pad[:, None], X - X[-1], 0.0)
     quad, link = quadrature_rows(grid), linkage_rows(grid)
     if quad is not None:
         E, W = quad
@@ -250,7 +274,7 @@ def equality_jacobian(z, ocp: OptimalControlProblem, grid):
     X, U, sf = unpack(z, ocp, grid)
     n_x, n = ocp.n_x, z.size
     h = 0.5 * (sf - ocp.s0)
-    J = -h * pointwise_jacobian(ocp, grid, X, U, sf)               # (n_pts, n_x, n_x + n_u)
+    J = -h * _live(grid, pointwise_jacobian(ocp, grid, X, U, sf))  # (n_pts, n_x, n_x + n_u)
     idx = point_indices(ocp, grid)
     n_def = grid.n * n_x
     rows_i = jnp.arange(n_def).reshape(grid.n, n_x)
@@ -259,6 +283,10 @@ def equality_jacobian(z, ocp: OptimalControlProblem, grid):
     n_support = X[support].shape[0]
     A = A.at[:, :n_support * n_x].set(jnp.kron(grid.D, jnp.eye(n_x, dtype=z.dtype)))
     A = A.at[rows_i[:, :, None], idx[:, None, :]].add(J)
+    pad = padding(grid)
+    if pad is not None:                          # the padding's rows X_pad - X_last
+        on = pad[:, None].astype(z.dtype)
+        A = A.at[rows_i, idx[:, :n_x]].add(on).at[rows_i, idx[-1:, :n_x]].add(-on)
     blocks = [A]
     eye = jnp.eye(n_x, dtype=z.dtype)
     n_states = n_state_rows(grid) * n_x
@@ -311,23 +339,27 @@ def point_hessians(z, multipliers, ocp: OptimalControlProblem, grid):
         pen_g = pen_h = jnp.zeros((grid.n, 0), z.dtype)
     else:
         pen_g, pen_h = P.inequality, P.equality
+    pad = padding(grid)
+    live = jnp.ones(grid.n, z.dtype) if pad is None else jnp.where(pad, 0.0, 1.0)
 
-    def point_block(si, x, u, d, mui, wi, gi, hi):
+    def point_block(si, x, u, d, mui, wi, gi, hi, li):
         def ell(v):
             xv, uv = v[:n_x], v[n_x:]
             val = h * (wi * ocp.running_cost(si, xv, uv, d, ocp.params)
-                       - mui @ ocp.dynamics(si, xv, uv, d, ocp.params))
+                       - li * mui @ ocp.dynamics(si, xv, uv, d, ocp.params))
             if P is not None and ocp.path is not None:
                 g = jnp.atleast_1d(ocp.path(si, xv, uv, d, ocp.params))
-                val = val + jnp.sum(phr_inequality(g, gi, P.rho))
+                val = val + li * jnp.sum(phr_inequality(g, gi, P.rho))
             if P is not None and ocp.path_equality is not None:
                 e = jnp.atleast_1d(ocp.path_equality(si, xv, uv, d, ocp.params))
-                val = val + jnp.sum(phr_equality(e, hi, P.rho))
+                val = val + li * jnp.sum(phr_equality(e, hi, P.rho))
+            if pad is not None:                  # the padding's control cost |U_pad|^2 / 2
+                val = val + 0.5 * (1.0 - li) * jnp.dot(uv, uv)
             return val
         return jax.hessian(ell)(jnp.concatenate([x, u]))
 
-    return jax.vmap(point_block, in_axes=(0, 0, 0, data_axis, 0, 0, 0, 0))(
-        s, X[collocated_rows(grid)], U, ocp.node_data, mu, grid.weights, pen_g, pen_h)
+    return jax.vmap(point_block, in_axes=(0, 0, 0, data_axis, 0, 0, 0, 0, 0))(
+        s, X[collocated_rows(grid)], U, ocp.node_data, mu, grid.weights, pen_g, pen_h, live)
 
 
 def lagrangian_hessian(z, multipliers, ocp: OptimalControlProblem, grid):
@@ -370,12 +402,13 @@ def costates(z, multipliers, ocp: OptimalControlProblem, grid):
     n_x = ocp.n_x
     n_def = grid.n * n_x
     Lam = multipliers[:n_def].reshape(grid.n, n_x)
-    lam = -Lam / grid.weights[:, None]
+    weights = _live(grid, grid.weights, 1.0)         # a padding row's Lam is 0
+    lam = -Lam / weights[:, None]
     quad, link = quadrature_rows(grid), linkage_rows(grid)
     if quad is not None:
         W = quad[1]
         Lam_q = multipliers[n_def:n_def + W.shape[0] * n_x].reshape(-1, n_x)
-        lam = lam - (W.T @ Lam_q) / grid.weights[:, None]
+        lam = lam - (W.T @ Lam_q) / weights[:, None]
     if grid.scheme == "LGL":
         X, _, sf = unpack(z, ocp, grid)
         nu = multipliers[n_def + n_extra_rows(grid) * n_x:]

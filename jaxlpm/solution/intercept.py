@@ -16,15 +16,21 @@ Neither family estimates costates: `costate(t)` is NaN (6,).
 direction as a propagator calls it, the engine, the impulse), for `jaxlpm.verify.fly`.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
 
 from ..collocation import Grid
+from ..collocation.padded import capacity, grid_rows, pad_grid, pad_rows
 from ..dynamics.propagation import propagate
-from .collocated import control_interpolant
+from .collocated import control_interpolant, take_rows
+
+# A concrete burn's grid lgl(n) is padded to 21 points (2^k + 1 above: 41, ...) where one
+# program should serve every n (the solver's solve, the flight's plan): tan2011 solves 5, 10
+# and 20 points.
+PAD_CAPACITY = 21
 
 
 class Burn(NamedTuple):
@@ -149,6 +155,8 @@ class FiniteBurn:
     zero on the coasts. The coast after the burn starts from the last node's state.
     """
 
+    NODE_FIELDS = ("node_states", "node_directions")
+
     grid: Grid
     state0: jax.Array
     t_start: jax.Array
@@ -218,6 +226,21 @@ class FiniteBurn:
         """The unit thrust direction u_hat(t) (t in s) as a propagator calls it."""
         return control_interpolant(self.grid, self.node_directions, self.t_start, self.t_end,
                                    1.0, "time")
+
+    def padded(self) -> "FiniteBurn":
+        """This burn on lgl(n) with its grid a `PaddedGrid` of `capacity(n, PAD_CAPACITY)`
+        points and its node rows in the padded layout (host arrays; concrete, one burn): one
+        compiled program serves every grid up to the capacity."""
+        padded = pad_grid(self.grid.n, capacity(self.grid.n, PAD_CAPACITY))
+        return replace(self, grid=padded, **{k: pad_rows(getattr(self, k), padded.n)
+                                             for k in self.NODE_FIELDS})
+
+    def unpadded(self, grid: Grid) -> "FiniteBurn":
+        """The inverse of `padded`: this burn on a `PaddedGrid` of `grid` (= lgl(n)) as the
+        burn on `grid`, its node rows gathered on the host (no compiled program)."""
+        rows = grid_rows(grid.n, self.grid.n)
+        return replace(self, grid=grid, **{k: take_rows(getattr(self, k), rows)
+                                           for k in self.NODE_FIELDS})
 
     def burn(self) -> Burn:
         return Burn(self.t_start, self.t_end, self.flight_control(), self.thrust, self.mass,

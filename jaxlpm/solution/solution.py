@@ -169,12 +169,19 @@ class Solution:
                                  f"the start of the transfer), got {tt}")
         return t
 
+    def evaluable(self) -> "Solution":
+        """This solution with only what evaluating it reads, its trajectory and duration (the
+        problem, stats and method left out): the programs that evaluate it (`_evaluated`,
+        `jaxlpm.verify.fly`'s plan) then serve every solution of one trajectory kind and
+        size, whatever problem and stats it came with."""
+        return replace(self, problem=None, stats={}, method="")
+
     def _evaluate(self, which, t):
         """The trajectory's `which` ("state", "control", "costate") at t in [0, duration],
         mapped over t of any shape; NaN outside [0, duration] (traced t; a concrete t outside
         raises ValueError). Concrete input runs one compiled program (`_evaluated`), not
         the interpolation op by op."""
-        return _evaluated(self, self._checked_time(t), which)
+        return _evaluated(self.evaluable(), self._checked_time(t), which)
 
     def states(self, t):
         """States (m, m/s in `frame`) at times t (s since the start; any shape, the state

@@ -50,7 +50,8 @@ is the problem's seed, or else the intercept's impulsive solution (`jaxlpm.solve
 its own compiled program).
 
 `jaxlpm.solve(FiniteBurnIntercept(...), lgl(n))` (method "augmented-lagrangian", default grid
-lgl(5)) returns a `Solution` (frame "inertial", trajectory `jaxlpm.solution.FiniteBurn`):
+lgl(5); one concrete solve runs on lgl(n) padded to 21 points, `run`) returns a `Solution`
+(frame "inertial", trajectory `jaxlpm.solution.FiniteBurn`, on lgl(n)):
   cost      the burn duration D (s), the objective (fuel = mdot D: stats["fuel"], and
             `propellant(mass, isp)` gives the same by the rocket equation)
   duration  t_f (s)
@@ -79,9 +80,12 @@ from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
+from .._validation import is_concrete
 from ..compilation import compiled, pipelined
 from ..collocation import Grid, lgl
+from ..collocation.padded import capacity, pad_grid
 from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import COAST_TANGENT, VARIATIONAL, propagate, solve_ode
 from ..nlp.accuracy import check_flight, check_mesh, collocation_defects, unit_direction
@@ -92,6 +96,7 @@ from ..nlp.ocp import OptimalControlProblem
 from ..nlp.transcription import pack, unpack
 from ..problems.intercept import FiniteBurnIntercept
 from ..solution import FiniteBurn, Solution, zero_invalid
+from ..solution.intercept import PAD_CAPACITY
 from ..solution.accuracy import accuracy_stats
 from ..status import Status
 from .family import FamilySolver
@@ -439,16 +444,35 @@ def check_grid(grid, method):
         raise ValueError(f"a finite burn needs at least {MIN_POINTS} LGL points, got {grid.n}")
 
 
+def unpadded(solution: Solution, grid) -> Solution:
+    """A burn solved on a `PaddedGrid` as the burn on its own grid lgl(n) (`FiniteBurn.unpadded`:
+    node rows gathered on the host, no program compiled per n)."""
+    trajectory = solution.trajectory.unpadded(grid)
+    stats = dict(solution.stats, node_masses=trajectory.node_masses,
+                 node_directions=trajectory.node_directions)
+    return solution.replace(trajectory=trajectory, stats=stats)
+
+
 def run(problem, grid, method, options: FiniteBurnOptions) -> Solution:
     """Minimum-duration finite burn (module docstring) on an LGL grid: jit-compiled once per
     grid size, options and static structure (seed given or not); traceable (vmap over
     problems; not differentiable end to end: the t_s search is a while loop of solves).
+    One concrete solve runs on the grid padded to `capacity(n, PAD_CAPACITY)` points
+    (`jaxlpm.collocation.padded`; the padding pinned, `jaxlpm.nlp.transcription`): one
+    program for every grid up to lgl(21) (issue 21: tan2011's burns on 5, 10 and 20 points
+    compiled three programs of ~16 800 lines each). The same KKT point to the solver's
+    tolerances: D to 3e-8 s, nodal states to 5e-5 m (experiments/finite_burn_padding.py).
     Unseeded, the impulsive seed is a program of its own: a first solve compiles it beside
     the burn's (`jaxlpm.compilation.pipelined`)."""
+    solve_grid = grid
+    if is_concrete(problem) and np.ndim(problem.thrust) == 0:
+        solve_grid = pad_grid(grid.n, capacity(grid.n, PAD_CAPACITY))
     if problem.seeded:
-        return _compiled(problem, grid, options, _seed(problem))
-    return pipelined(lambda: _compiled(problem, grid, options, _seed(problem)),
-                     compiled_impulsive, problem.intercept)
+        solution = _compiled(problem, solve_grid, options, _seed(problem))
+    else:
+        solution = pipelined(lambda: _compiled(problem, solve_grid, options, _seed(problem)),
+                             compiled_impulsive, problem.intercept)
+    return solution if solve_grid is grid else unpadded(solution, grid)
 
 
 FAMILY = FamilySolver(problem=FiniteBurnIntercept,

@@ -43,7 +43,7 @@ from ..dynamics import elliptic_lvlh_rhs, gravity_acceleration, relative_inertia
 from ..dynamics.chief import anomaly_rate
 from ..dynamics.propagation import FLIGHT, solve_ode
 from ..orbits import elements_to_state, lvlh_to_relative_inertial, relative_inertial_to_lvlh
-from ..solution import Collocated
+from ..solution import Collocated, FiniteBurn
 from ..status import Status
 from .inertial import fly_burn
 
@@ -178,16 +178,18 @@ def _plan_difference(solution, ts, xs):
 
 
 def _plan(solution):
-    """The solution whose states `_plan_difference` evaluates: a concrete one with its stats
-    and method left out, and on an LGL `Grid` with its trajectory padded
-    (`Collocated.padded`), so that one program serves every grid and method up to the
-    capacity (mei2010 flies 16 solutions of 2 laws on 7 grids)."""
+    """The solution whose states `_plan_difference` evaluates: a concrete one reduced to
+    what evaluating it reads (`Solution.evaluable`), and on an LGL `Grid` with its
+    trajectory padded (`Collocated.padded`, `FiniteBurn.padded`), so that one program serves
+    every grid, method and problem up to the capacity (mei2010 flies 16 solutions of 2 laws
+    on 7 grids, tan2011 burns on 3 grids)."""
     tr = solution.trajectory
     if not (is_concrete(solution) and jnp.ndim(solution.status) == 0):
         return solution
-    if isinstance(tr, Collocated) and type(tr.grid) is Grid and tr.grid.scheme == "LGL":
+    if (isinstance(tr, (Collocated, FiniteBurn)) and type(tr.grid) is Grid
+            and tr.grid.scheme == "LGL"):
         tr = tr.padded()
-    return solution.replace(trajectory=tr, stats={}, method="")
+    return solution.replace(trajectory=tr).evaluable()
 
 
 def default_model(problem) -> str:
