@@ -33,7 +33,6 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.experimental.jet import jet
 
 from .._validation import check_finite, check_shape, is_concrete, require_x64
 from ..constants import MU_EARTH
@@ -111,13 +110,64 @@ def _series_time(x, lam, m):
     return 0.5 * (eta**3 * q + 4.0 * lam * eta) + jnp.where(m > 0, m * jnp.pi / en_rev**1.5, 0.0)
 
 
+def _battin_taylor(z):
+    """2F1(3, 1; 5/2; z) and its first three z-derivatives: Horner's scheme carrying the
+    Taylor coefficients of the truncated series at z (repeated synthetic division), one loop
+    over the coefficients."""
+    coeffs = jnp.asarray(_BATTIN_COEFFS[-2::-1])
+
+    def step(i, p):
+        p0, p1, p2, p3 = p
+        return p0 * z + coeffs[i], p1 * z + p0, p2 * z + p1, p3 * z + p2
+
+    zero = jnp.zeros_like(z)
+    p0, p1, p2, p3 = jax.lax.fori_loop(0, coeffs.size, step,
+                                       (zero + _BATTIN_COEFFS[-1], zero, zero, zero))
+    return p0, p1, 2.0 * p2, 6.0 * p3
+
+
+def _series_derivatives(x, lam, m):
+    """`_series_time` and its first three x-derivatives by the chain and product rules
+    (Faa di Bruno to third order) through y = sqrt(1 - lambda^2 (1 - x^2)), eta = y -
+    lambda x, z = (1 - lambda - x eta) / 2, Q = 4/3 2F1(z) (`_battin_taylor`) and the
+    M pi |1 - x^2|^(-3/2) term, with y' = lambda^2 x / y, y'' = lambda^2 (1 - lambda^2) / y^3,
+    y''' = -3 y'' y' / y. Exact, no cancellation at x = 1 (nothing divides by 1 - x^2 there
+    for M = 0); written out instead of Taylor-mode autodiff (jax.experimental.jet), whose
+    program was 3/4 of the whole Lambert solver's (issue 21)."""
+    l2 = lam**2
+    y = jnp.sqrt(1.0 - l2 * (1.0 - x) * (1.0 + x))
+    y1 = l2 * x / y
+    y2 = l2 * (1.0 - l2) / y**3
+    y3 = -3.0 * y2 * y1 / y
+    e0, e1, e2, e3 = y - lam * x, y1 - lam, y2, y3                          # eta
+    z1, z2, z3 = -0.5 * (e0 + x * e1), -0.5 * (2.0 * e1 + x * e2), -0.5 * (3.0 * e2 + x * e3)
+    f0, f1, f2, f3 = _battin_taylor(0.5 * (1.0 - lam - x * e0))
+    q = (f0, f1 * z1, f2 * z1**2 + f1 * z2, f3 * z1**3 + 3.0 * f2 * z1 * z2 + f1 * z3)
+    q0, q1, q2, q3 = (4.0 / 3.0 * qk for qk in q)
+    p0, p1 = e0**3, 3.0 * e0**2 * e1                                         # eta^3
+    p2 = 6.0 * e0 * e1**2 + 3.0 * e0**2 * e2
+    p3 = 6.0 * e1**3 + 18.0 * e0 * e1 * e2 + 3.0 * e0**2 * e3
+    a = (p0 * q0, p1 * q0 + p0 * q1, p2 * q0 + 2.0 * p1 * q1 + p0 * q2,
+         p3 * q0 + 3.0 * p2 * q1 + 3.0 * p1 * q2 + p0 * q3)
+    # M pi e^(-3/2), e = |1 - x^2| = sign (1 - x^2): e' = -2 x sign, e'' = -2 sign, e''' = 0
+    en = (1.0 - x) * (1.0 + x)
+    sign = jnp.where(en < 0.0, -1.0, 1.0)
+    e = jnp.where(m > 0, jnp.abs(en), 1.0)        # M = 0 may sit at x = 1 exactly
+    d1, d2 = -2.0 * x * sign, -2.0 * sign
+    g0, g1, g2, g3 = e**-1.5, -1.5 * e**-2.5, 3.75 * e**-3.5, -13.125 * e**-4.5
+    r = (g0, g1 * d1, g2 * d1**2 + g1 * d2, g3 * d1**3 + 3.0 * g2 * d1 * d2)
+    mpi = jnp.where(m > 0, m * jnp.pi, 0.0)
+    return tuple(0.5 * (a[k] + 4.0 * lam * ek) + mpi * r[k]
+                 for k, ek in enumerate((e0, e1, e2, e3)))
+
+
 def _derivatives(x, lam, m):
     """T and its x-derivatives T1, T2, T3. Away from x = 1: Izzo eq. 22, with
     y = sqrt(1 - lambda^2 (1 - x^2)), d = 1 - x^2,
     T1 = (3 T x - 2 + 2 lambda^3 x / y) / d, T2 = (3 T + 5 x T1 + 2 (1 - lambda^2) lambda^3 /
     y^3) / d, T3 = (7 x T2 + 8 T1 - 6 (1 - lambda^2) lambda^5 x / y^5) / d. These divide by
     d -> 0 at x = 1, so inside the series radius the derivatives are those of Battin's series
-    itself (Taylor-mode autodiff, jax.experimental.jet: exact, no cancellation)."""
+    itself (`_series_derivatives`: exact, no cancellation)."""
     t = time_of_flight(x, lam, m)
     near = jnp.abs(x - 1.0) < SERIES_RADIUS
     xf = jnp.where(near, 0.0, x)                       # stand-in keeps the closed forms finite
@@ -128,10 +178,7 @@ def _derivatives(x, lam, m):
     t1 = (3.0 * tf * xf - 2.0 + 2.0 * l3 * xf / y) / d
     t2 = (3.0 * tf + 5.0 * xf * t1 + 2.0 * (1.0 - l2) * l3 / y**3) / d
     t3 = (7.0 * xf * t2 + 8.0 * t1 - 6.0 * (1.0 - l2) * l3 * l2 * xf / y**5) / d
-    xn = jnp.where(near, x, 1.0)
-    _, (s1, s2, s3) = jet(lambda z: _series_time(z, lam, m), (xn,),
-                          ((jnp.ones_like(xn), jnp.zeros_like(xn), jnp.zeros_like(xn)),))
-    # (jet along z = x + t returns the derivatives d^k T / dx^k, k = 1, 2, 3)
+    _, s1, s2, s3 = _series_derivatives(jnp.where(near, x, 1.0), lam, m)
     return (t, jnp.where(near, s1, t1), jnp.where(near, s2, t2), jnp.where(near, s3, t3))
 
 

@@ -13,12 +13,13 @@ t_b and must be at r_target at t_f, under two-body + J2 gravity.
   accumulate=True the corrections add up (aim_k+1 = aim_k - L_k), the fixed-point iteration
   that converges when the J2 displacement varies slowly with the aim point.
 - `shoot`: Newton's method on the post-burn velocity, r(t_f; r_b, v) = r_target, with the exact
-  3x3 Jacobian by reverse-mode autodiff through the diffrax coast (the paper's model (1), solved
+  3x3 Jacobian by forward-mode autodiff through the diffrax coast (the paper's model (1), solved
   as a root problem), from the Lambert seed; differentiated by the implicit function theorem
   (`jaxlpm.implicit`), so |dv| is differentiable in t_b.
 - A burn-time window [t_lo, t_hi]: |dv(t_b)| minimised by a safeguarded secant method on
-  d|dv|/dt_b = 0 (a bracket g(t_lo) < 0 < g(t_hi) is kept and a secant step that leaves it
-  is replaced by bisection; without a sign change it converges to the end of least |dv|).
+  g = d|dv|/dt_b = 0 (g by the implicit function theorem, `burn_time_derivative`; a bracket
+  g(t_lo) < 0 < g(t_hi) is kept and a secant step that leaves it is replaced by bisection;
+  without a sign change it converges to the end of least |dv|).
 
 `jaxlpm.solve(ImpulsiveIntercept(...))` (method "shooting", no grid) returns a `Solution`
 (frame "inertial", trajectory `jaxlpm.solution.Impulse`):
@@ -47,6 +48,7 @@ import jax.numpy as jnp
 
 from ..compilation import compiled
 from ..constants import MU_EARTH
+from ..dynamics.gravity import inertial_rhs
 from ..dynamics.propagation import COAST_TANGENT, EPHEMERIS, propagate
 from ..implicit import root
 from ..orbits.lambert import lambert
@@ -199,16 +201,35 @@ def shoot(problem: ImpulsiveIntercept, t_burn) -> Shot:
     return Shot(pre, v, end, miss, it, m, b, lam_status, status)
 
 
-def _impulse(problem, t_burn):
-    """(|dv| (m/s), the shot) burning at t_burn: differentiable in t_burn."""
-    shot = shoot(problem, t_burn)
-    return jnp.linalg.norm(shot.dv), shot
+def burn_time_derivative(problem: ImpulsiveIntercept, t_burn, shot: Shot):
+    """g = d|dv|/dt_b (m/s^2) of the shot at t_burn, by the implicit function theorem in
+    forward mode. Burning later moves the burn point along the coast (dr_b/dt_b = v_pre,
+    dv_pre/dt_b = a(r_b), the J2 gravity there) and shortens the coast after it (dtof/dt_b =
+    -1, dr_f/dtof = v_f); the post-burn velocity keeps r_f(r_b, v_post, tof) = r_target, so
+    J_v dv_post/dt_b = -(J_r v_pre - v_f), J = dr_f/d[r_b, v] from one forward-mode coast
+    with six tangents (`COAST_TANGENT`). Then g = dv . (dv_post/dt_b - a(r_b)) / |dv|.
+    Reverse-mode autodiff through the shot (the diffrax coast's adjoint and the implicit
+    Newton root) gave the same derivative from a program twice the size that took 20 s to
+    trace (issue 21)."""
+    pre = shot.burn_state
+
+    def position(x):
+        end, _ = propagate(x, problem.duration - t_burn, problem.mu, problem.j2, problem.r_eq,
+                           integrator=COAST_TANGENT)
+        return end[:3], end
+
+    J, end = jax.jacfwd(position, has_aux=True)(jnp.concatenate([pre[:3], shot.v_post]))
+    dv_post = -jnp.linalg.solve(J[:, 3:], J[:, :3] @ pre[3:] - end[3:])
+    accel = inertial_rhs(pre, jnp.zeros(3), problem.mu, problem.j2, problem.r_eq)[3:]
+    dv = shot.dv
+    return jnp.dot(dv, dv_post - accel) / jnp.linalg.norm(dv)
 
 
 def optimise_burn_time(problem: ImpulsiveIntercept):
     """Minimise |dv(t_b)| on the window problem.burn_time = [t_lo, t_hi] (s) by the safeguarded
-    secant method on the autodiff derivative g = d|dv|/dt_b (module docstring). Returns
-    (t_b, the shot there, g there, secant steps, converged: the bracket below SEARCH_TOL).
+    secant method on the derivative g = d|dv|/dt_b (`burn_time_derivative`; module
+    docstring). Returns (t_b, the shot there, g there, secant steps, converged: the bracket
+    below SEARCH_TOL).
     Not an optax loop (issue 23): this is a 1-D root of g in a bracket, which the secant
     closes superlinearly (tan2011: 9 steps from a 1000 s window to 1e-4 s) and never
     leaves; a first-order optax optimiser needs a learning rate in seconds and converges
@@ -218,7 +239,6 @@ def optimise_burn_time(problem: ImpulsiveIntercept):
     carries the shot at each end of the bracket: the program holds one copy of the shot and
     its derivative (issue 21: four copies, 77 882 StableHLO lines, were 88 s of a cold
     `jaxlpm reproduce tan2011`)."""
-    grad = jax.value_and_grad(lambda t: _impulse(problem, t), has_aux=True)
     t_lo, t_hi = problem.burn_time[0], problem.burn_time[1]
 
     def cond(c):
@@ -233,7 +253,8 @@ def optimise_burn_time(problem: ImpulsiveIntercept):
         width = hi - lo
         t = jnp.clip(t, lo + 0.01 * width, hi - 0.01 * width)
         t = jnp.select([it == 0, it == 1], [t_lo, t_hi], t)
-        (_, shot), g = grad(t)
+        shot = shoot(problem, t)
+        g = burn_time_derivative(problem, t, shot)
         shot = jax.tree_util.tree_map(lambda new, old: new.astype(old.dtype), shot, shot_lo)
         at_lo = jnp.where(it < 2, it == 0, g < 0)
         pick = lambda a, b: jax.tree_util.tree_map(
