@@ -30,6 +30,7 @@ and the rough solution's flight from the burn point) uses the lower-level functi
 
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import jax
 import jax.numpy as jnp
@@ -39,7 +40,7 @@ from ..compilation import compiled
 from .. import verify
 from ..collocation import lgl
 from ..constants import G0, J2_EARTH, MU_EARTH, R_EARTH
-from ..dynamics.propagation import propagate
+from ..dynamics.propagation import COAST_TANGENT, propagate
 from ..orbits import KeplerOrbit, elements_to_state
 from ..orbits.lambert import lambert
 from ..problems.intercept import FiniteBurnIntercept, ImpulsiveIntercept
@@ -87,14 +88,17 @@ def _orbit(elements):
 
 
 def _burn_position(e, argp):
+    """(x, y) (m) at T_BURN of the J2 coast of Table 1's orbit with e and argp (the COAST
+    integration, differentiable in forward mode)."""
     el = dict(ELEMENTS_PRINTED, e=e, argp=argp)
     x0 = jnp.concatenate(elements_to_state(_orbit(el)))
-    return propagate(x0, T_BURN, MU_EARTH, J2_EARTH, R_EARTH)[0][:2]
+    return propagate(x0, T_BURN, MU_EARTH, J2_EARTH, R_EARTH, integrator=COAST_TANGENT)[0][:2]
 
 
 def _recover(iterations):
     """(e, argp) after `iterations` Newton steps and the burn-point residual there (m): one
-    program, each pass a residual and its Jacobian (one reverse pass through the coast)."""
+    program, each pass a residual and its Jacobian (one forward-mode coast with two tangents,
+    `COAST_TANGENT`: a reverse pass through the coast took 4 s to trace, issue 21)."""
     target = jnp.asarray(R_BURN[:2])
 
     def residual(p):
@@ -103,7 +107,7 @@ def _recover(iterations):
 
     def step(k, c):
         p, _ = c
-        jac, r = jax.jacrev(residual, has_aux=True)(p)
+        jac, r = jax.jacfwd(residual, has_aux=True)(p)
         return jnp.where(k < iterations, p - jnp.linalg.solve(jac, r), p), r
 
     p0 = jnp.array([ELEMENTS_PRINTED["e"], ELEMENTS_PRINTED["argp"]])
@@ -191,43 +195,54 @@ def burn_directions(control, ts):
 _burn_directions = compiled(burn_directions)
 
 
-def _finite_burns(prob, log):
-    """Minimum-duration finite burns for NODES through `jaxlpm.solve`, initialised by eq. (2)
-    from the exact impulsive solution at T_BURN; each flown from t = 0 by `jaxlpm.verify.fly`.
-    Returns (rows, solutions, burn samples: (times, flown [r, v, m], flown directions))."""
+def _finite_burn(fb, n):
+    """The burn on lgl(n) through `jaxlpm.solve`, flown from t = 0 by `jaxlpm.verify.fly`:
+    (its row, the solution, its samples (times, flown [r, v, m], flown directions))."""
+    t = time.perf_counter()
+    sol = jax.block_until_ready(solve(fb, lgl(n)))
+    solve_s = time.perf_counter() - t
+    flight = verify.fly(sol)
+    ts, states = burn_samples(sol)
+    directions = np.asarray(_burn_directions(sol.trajectory.flight_control(), jnp.asarray(ts)))
+    st = sol.stats
+    row = {"nodes": n, "points": n, "t_start": float(st["t_start"]),
+           "duration": float(sol.cost), "t_end": float(st["t_end"]),
+           "fuel_kg": float(st["fuel"]), "miss": float(flight.terminal_error[0]),
+           "miss_collocated": float(st["miss"]), "flown_final_mass_kg": float(states[-1, 6]),
+           "flight_ok": bool(flight.success), "status": Status(int(sol.status)).name,
+           "duration_gradient": float(st["duration_gradient"]),
+           "node_times": _vec(sol.times),
+           "node_directions": np.asarray(st["node_directions"]).tolist(),
+           "constraint_residual": float(st["constraint_residual"]),
+           "path_residual": float(st["path_residual"]),
+           "stationarity_residual": float(st["stationarity_residual"]),
+           "search_iterations": int(st["search_iterations"]),
+           "arc_solves": int(st["arc_solves"]),
+           "newton_iterations": int(st["newton_iterations"]),
+           "delta_v": float(sol.delta_v), "solve_s": solve_s}
+    return row, sol, (ts, states, directions)
+
+
+def _finite_burns(prob, log, beside):
+    """Minimum-duration finite burns for NODES (`_finite_burn`), initialised by eq. (2) from
+    the exact impulsive solution at T_BURN. beside: two at a time in threads (each solve is
+    one core's sequential loop; a dry run is per thread, so it solves them in turn).
+    Returns (rows, solutions, burn samples)."""
     fb = finite_burn_problem(prob)
+    pool = ThreadPoolExecutor(max_workers=2) if beside else None
+    burns = (pool.map(lambda n: _finite_burn(fb, n), NODES) if beside
+             else (_finite_burn(fb, n) for n in NODES))
     rows, sols, samples = [], [], []
-    for n in NODES:
-        t = time.perf_counter()
-        sol = jax.block_until_ready(solve(fb, lgl(n)))
-        solve_s = time.perf_counter() - t
-        flight = verify.fly(sol)
-        ts, states = burn_samples(sol)
-        directions = np.asarray(_burn_directions(sol.trajectory.flight_control(),
-                                                 jnp.asarray(ts)))
-        st = sol.stats
-        row = {"nodes": n, "points": n, "t_start": float(st["t_start"]),
-               "duration": float(sol.cost), "t_end": float(st["t_end"]),
-               "fuel_kg": float(st["fuel"]), "miss": float(flight.terminal_error[0]),
-               "miss_collocated": float(st["miss"]), "flown_final_mass_kg": float(states[-1, 6]),
-               "flight_ok": bool(flight.success), "status": Status(int(sol.status)).name,
-               "duration_gradient": float(st["duration_gradient"]),
-               "node_times": _vec(sol.times),
-               "node_directions": np.asarray(st["node_directions"]).tolist(),
-               "constraint_residual": float(st["constraint_residual"]),
-               "path_residual": float(st["path_residual"]),
-               "stationarity_residual": float(st["stationarity_residual"]),
-               "search_iterations": int(st["search_iterations"]),
-               "arc_solves": int(st["arc_solves"]),
-               "newton_iterations": int(st["newton_iterations"]),
-               "delta_v": float(sol.delta_v), "solve_s": solve_s}
-        log(f"finite burn, {n:>2} LGL nodes: t_s = {row['t_start']:.3f} s, D = "
+    for row, sol, sample in burns:                   # in order, each as soon as it is done
+        log(f"finite burn, {row['nodes']:>2} LGL nodes: t_s = {row['t_start']:.3f} s, D = "
             f"{row['duration']:.4f} s, fuel {row['fuel_kg']:.4f} kg, flown miss "
             f"{row['miss']:.3e} m, {row['status']} ({row['search_iterations']} t_s steps, "
-            f"{row['newton_iterations']} Newton iterations; {solve_s:.1f} s)")
+            f"{row['newton_iterations']} Newton iterations; {row['solve_s']:.1f} s)")
         rows.append(row)
         sols.append(sol)
-        samples.append((ts, states, directions))
+        samples.append(sample)
+    if pool is not None:
+        pool.shutdown()
     return rows, sols, samples
 
 
@@ -239,7 +254,9 @@ def _vec(x):
     return [float(v) for v in np.asarray(x)]
 
 
-def compute(log=print):
+def compute(log=print, beside=True):
+    """The case's numbers: (problem, figure data, the JSON's "computed"); beside: the finite
+    burns two at a time (`_finite_burns`)."""
     t0 = time.perf_counter()
     el, resid = recover_elements()
     printed_burn = np.asarray(_compiled_burn_state(problem(), T_BURN)[0][:3])
@@ -290,7 +307,7 @@ def compute(log=print):
         f"{time.perf_counter() - t2:.1f} s")
 
     # finite burns (Table 3), from eq. (2) about the exact impulsive solution
-    fb_rows, fb_sols, fb_samples = _finite_burns(prob, log)
+    fb_rows, fb_sols, fb_samples = _finite_burns(prob, log, beside)
     # the transfer figure's samples, here so that a dry run compiles their programs
     t_b = float(st["t_burn"])
     _, post = verify_miss(rb, np.asarray(st["v_post"]), t_b, 2000)
@@ -484,7 +501,7 @@ def _dry_run():
     program, compiled from the start beside everything else (the burns come last in
     `compute`; its trace needs the problem's shapes only)."""
     solve(finite_burn_problem(problem()), lgl(NODES[0]))
-    compute(log=lambda msg: None)
+    compute(log=lambda msg: None, beside=False)
 
 
 def reproduce(out_dir, log=print):
