@@ -112,17 +112,11 @@ def _series_time(x, lam, m):
 
 def _battin_taylor(z):
     """2F1(3, 1; 5/2; z) and its first three z-derivatives: Horner's scheme carrying the
-    Taylor coefficients of the truncated series at z (repeated synthetic division), one loop
-    over the coefficients."""
-    coeffs = jnp.asarray(_BATTIN_COEFFS[-2::-1])
-
-    def step(i, p):
-        p0, p1, p2, p3 = p
-        return p0 * z + coeffs[i], p1 * z + p0, p2 * z + p1, p3 * z + p2
-
-    zero = jnp.zeros_like(z)
-    p0, p1, p2, p3 = jax.lax.fori_loop(0, coeffs.size, step,
-                                       (zero + _BATTIN_COEFFS[-1], zero, zero, zero))
+    Taylor coefficients of the truncated series at z (repeated synthetic division; unrolled,
+    so that XLA fuses it, as `_hyp2f1_battin`)."""
+    p0, p1, p2, p3 = _BATTIN_COEFFS[-1], 0.0, 0.0, 0.0
+    for c in _BATTIN_COEFFS[-2::-1]:
+        p0, p1, p2, p3 = p0 * z + c, p1 * z + p0, p2 * z + p1, p3 * z + p2
     return p0, p1, 2.0 * p2, 6.0 * p3
 
 
