@@ -404,7 +404,10 @@ def prefetch(run, log=None, workers: int = 2, wait: bool = True) -> int:
         return 0
     state = _local.dry_run = _Prefetch(workers, log)
     try:
-        run()
+        # the dry run's zeros may meet host arithmetic (a burn's delta-v divides by its zero
+        # mass flow): its values are discarded, and so are NumPy's warnings about them
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            run()
     except Exception as err:                            # noqa: BLE001 (the real run will tell)
         if log is not None:
             log(f"dry run stopped early ({type(err).__name__}: {err}); the rest compiles "
