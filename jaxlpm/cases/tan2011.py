@@ -229,20 +229,18 @@ def _finite_burns(prob, log, beside):
     one core's sequential loop; a dry run is per thread, so it solves them in turn).
     Returns (rows, solutions, burn samples)."""
     fb = finite_burn_problem(prob)
-    pool = ThreadPoolExecutor(max_workers=2) if beside else None
-    burns = (pool.map(lambda n: _finite_burn(fb, n), NODES) if beside
-             else (_finite_burn(fb, n) for n in NODES))
     rows, sols, samples = [], [], []
-    for row, sol, sample in burns:                   # in order, each as soon as it is done
-        log(f"finite burn, {row['nodes']:>2} LGL nodes: t_s = {row['t_start']:.3f} s, D = "
-            f"{row['duration']:.4f} s, fuel {row['fuel_kg']:.4f} kg, flown miss "
-            f"{row['miss']:.3e} m, {row['status']} ({row['search_iterations']} t_s steps, "
-            f"{row['newton_iterations']} Newton iterations; {row['solve_s']:.1f} s)")
-        rows.append(row)
-        sols.append(sol)
-        samples.append(sample)
-    if pool is not None:
-        pool.shutdown()
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        burns = (pool.map(lambda n: _finite_burn(fb, n), NODES) if beside
+                 else (_finite_burn(fb, n) for n in NODES))
+        for row, sol, sample in burns:               # in order, each as soon as it is done
+            log(f"finite burn, {row['nodes']:>2} LGL nodes: t_s = {row['t_start']:.3f} s, D = "
+                f"{row['duration']:.4f} s, fuel {row['fuel_kg']:.4f} kg, flown miss "
+                f"{row['miss']:.3e} m, {row['status']} ({row['search_iterations']} t_s steps, "
+                f"{row['newton_iterations']} Newton iterations; {row['solve_s']:.1f} s)")
+            rows.append(row)
+            sols.append(sol)
+            samples.append(sample)
     return rows, sols, samples
 
 

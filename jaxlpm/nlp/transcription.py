@@ -340,7 +340,7 @@ def point_hessians(z, multipliers, ocp: OptimalControlProblem, grid):
     else:
         pen_g, pen_h = P.inequality, P.equality
     pad = padding(grid)
-    live = jnp.ones(grid.n, z.dtype) if pad is None else jnp.where(pad, 0.0, 1.0)
+    live = _live(grid, jnp.ones(grid.n, z.dtype))
 
     def point_block(si, x, u, d, mui, wi, gi, hi, li):
         def ell(v):
