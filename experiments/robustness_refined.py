@@ -18,7 +18,9 @@ Summary (printed and OUT/summary.json): statuses, the SUCCESS fraction, the larg
 of the SUCCESS members, the table by e and revolutions, wall time against the baseline (with
 compiles and flights: every rung's members are flown, so a member refined three times flies
 three times); --timing N adds the solve-only steady-state time of both on the first N
-problems.
+problems. --ladder KxN,KxN,... refines on another ladder of LGR meshes (segments x points per
+segment; default the library's `DEFAULT_LADDER`, h only): `4x16,4x32,8x32,16x32` raises the
+degree first (docs/accuracy.md, "Raising the degree or splitting").
 """
 
 import argparse
@@ -35,6 +37,7 @@ import numpy as np  # noqa: E402
 
 from jaxlpm.batch import map_in_groups, save_npz_atomic, write_json_atomic  # noqa: E402
 from jaxlpm.batch.refine import accuracy_record, refine_batch  # noqa: E402
+from jaxlpm.solvers.refine import DEFAULT_LADDER, MeshLadder  # noqa: E402
 from jaxlpm.cases.mei2010 import dispersion, dispersion_parameters  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -59,13 +62,20 @@ def _baseline_of(record):
 _baseline = _baseline_of(flown_record)
 
 
-def steady_timing(problems):
+def parse_ladder(text):
+    """A `MeshLadder` of LGR meshes from "4x16,8x16,...", or `DEFAULT_LADDER` for None."""
+    if text is None:
+        return DEFAULT_LADDER
+    return MeshLadder(tuple(tuple(int(v) for v in rung.split("x")) for rung in text.split(",")))
+
+
+def steady_timing(problems, ladder=DEFAULT_LADDER):
     """Solve-only wall time (no flights; compiled functions warmed up by a first pass):
     refinement against the fixed lgl(65) grid on the same problems, and the refinement's
     seconds per rung (rung_s)."""
     base = _baseline_of(accuracy_record)
     out = {}
-    for name, run in (("refined_s", lambda: refine_batch(problems)),
+    for name, run in (("refined_s", lambda: refine_batch(problems, ladder=ladder)),
                       ("baseline_s", lambda: jax.block_until_ready(base(problems)))):
         run()
         t = time.perf_counter()
@@ -75,7 +85,7 @@ def steady_timing(problems):
     # where the refined time goes: a third pass, each rung timed from refine_batch's log line
     # (written once the rung's records are on the host)
     stamps = [time.perf_counter()]
-    refine_batch(problems, log=lambda line: stamps.append(time.perf_counter()))
+    refine_batch(problems, ladder=ladder, log=lambda line: stamps.append(time.perf_counter()))
     out["rung_s"] = np.diff(stamps).tolist()
     return out
 
@@ -107,7 +117,10 @@ def main(argv=None):
     ap.add_argument("--timing", type=int, default=0,
                     help="also time the solves alone (no flights, steady state) on the first "
                          "TIMING problems")
+    ap.add_argument("--ladder", default=None,
+                    help="rungs as KxN,KxN,... (LGR segments x points; default DEFAULT_LADDER)")
     args = ap.parse_args(argv)
+    ladder = parse_ladder(args.ladder)
     out = args.out or ROOT / "results" / f"robustness_refined_{args.model}_n{args.n}_s{args.seed}"
     out.mkdir(parents=True, exist_ok=True)
     problems = dispersion(jax.random.key(args.seed), args.n, model=args.model)
@@ -119,7 +132,7 @@ def main(argv=None):
         idx = np.arange(start, min(start + args.chunk, args.n))
         chunk = jax.tree_util.tree_map(lambda x: x[idx], problems)
         t = time.perf_counter()
-        rec = refine_batch(chunk, record=flown_record, log=print)
+        rec = refine_batch(chunk, ladder=ladder, record=flown_record, log=print)
         t_ref = time.perf_counter() - t
         data = {f"refined_{k}": v for k, v in rec.items()}
         if args.baseline:
@@ -142,7 +155,7 @@ def main(argv=None):
     status = rec["status"]
     ok = status == 0
     summary = dict(
-        n=int(idx.size), model=args.model, seed=args.seed,
+        n=int(idx.size), model=args.model, seed=args.seed, ladder=[list(r) for r in ladder.rungs],
         statuses={lpm.Status(int(s)).name: int((status == s).sum()) for s in np.unique(status)},
         success_fraction=float(ok.mean()),
         success_flown_within_tolerance=int(np.sum(ok & (rec["miss"][:, 0] <= 1.0)
@@ -155,7 +168,7 @@ def main(argv=None):
     if args.timing:
         summary["steady_timing"] = dict(
             n=args.timing, **steady_timing(jax.tree_util.tree_map(
-                lambda x: x[:args.timing], problems)))
+                lambda x: x[:args.timing], problems), ladder))
     if "baseline_status" in files[0].files:
         b_status = np.concatenate([f["baseline_status"] for f in files])
         b_miss = np.concatenate([f["baseline_miss"] for f in files])

@@ -208,17 +208,20 @@ def test_coarse_fixed_grid_is_inaccurate(eccentric):
 
 
 def test_default_solve_refines_to_the_tolerance(eccentric):
+    """The default ladder climbs past its first rung (4 x 16 is INACCURATE here) and ends on
+    one of its rungs' shapes, SUCCESS and flown within the default tolerance's goal. (Its
+    second rung raises the degree, 4 x 32, keeping the breaks; the split of the breaks where
+    the error is, end to end, is tests/test_meshes.py's.)"""
     sol = lpm.solve(eccentric)
     assert bool(sol.success), sol.message
-    assert isinstance(sol.grid, lpm.LGRMesh) and int(sol.stats["rung"]) >= 1
+    rung = int(sol.stats["rung"])
+    assert isinstance(sol.grid, lpm.LGRMesh) and rung >= 1
+    assert (sol.grid.n_segments, sol.grid.segment.n) == lpm.DEFAULT_LADDER.rungs[rung]
     tol = lpm.DEFAULT_TOLERANCE
     assert float(sol.stats["error_position"]) <= tol.position
     miss = np.asarray(lpm.verify.fly(sol).terminal_error)
     # the default tolerance's promise: a flown miss within 1 m and 1 mm/s
     assert miss[0] < 1.0 and miss[1] < 1e-3, miss
-    # the refined mesh is not uniform: the segments near perigee are shorter
-    lengths = np.diff(np.asarray(sol.grid.breaks))
-    assert lengths.max() > 1.5 * lengths.min()
 
 
 def test_batched_refinement_matches_the_single_solve_with_gradients():

@@ -48,6 +48,9 @@ def test_a_coarse_mesh_is_inaccurate_and_the_ladder_is_not(refined, scheme):
     assert float(coarse.stats["error_position"]) > 100.0 * lpm.DEFAULT_TOLERANCE.position
     assert type(fine.grid) is type(lpm.make_mesh(scheme, 2, 12))
     assert int(fine.stats["rung"]) >= 1
+    # split where the error is: unequal segments (a degree raise would keep equal breaks)
+    lengths = np.diff(np.asarray(fine.grid.breaks))
+    assert lengths.max() > 1.5 * lengths.min(), lengths
     # the flown miss of the refined solution (its control through an independent integrator)
     # within the tolerance the estimate was held to
     miss = np.asarray(flight.terminal_error)

@@ -110,6 +110,30 @@ def test_intercept_error_estimates_bound_the_flown_miss(case, burn):
     assert int(strict.status) == lpm.Status.INACCURATE, strict.message
 
 
+def test_default_solve_raises_the_burn_s_degree_until_the_estimate_meets_the_tolerance(burn):
+    """Issue 19, p refinement of the one-arc burn: `solve(fb)` without a grid runs lgl(5), then
+    9, 13, 21 points while INACCURATE, every grid on the one padded program. At the default
+    tolerance it stops on lgl(5), the fixture's burn. With a tolerance of 0.1 mm, below
+    lgl(5)'s estimate (1.5 mm, measured), it climbs and ends SUCCESS on more points with its
+    estimate within that tolerance (measured: lgl(9), 1.1e-6 m); the burn time agrees with
+    lgl(5)'s to the burn-start search's tolerance (1e-3 s), and the refined arc flies no worse
+    than lgl(5)'s: its own error gone, the flight's miss is the integrators' ~1 mm
+    disagreement over the two-day coast (measured 1.0 mm against lgl(5)'s 2.6 mm)."""
+    fb, five = burn
+    default = lpm.solve(fb)
+    assert int(default.stats["points"]) == 5 and int(default.status) == lpm.Status.SUCCESS
+    assert float(default.cost) == float(five.cost)
+    tol = lpm.Tolerance(position=1e-4)
+    refined = lpm.solve(fb, tolerance=tol)
+    assert int(refined.status) == lpm.Status.SUCCESS, refined.message
+    points = int(refined.stats["points"])
+    assert points > 5 and refined.trajectory.grid.n == points
+    assert float(refined.stats["error_position"]) <= tol.position
+    assert abs(float(refined.cost) - float(five.cost)) <= 1e-3
+    flown = float(lpm.verify.fly(refined).terminal_error[0])
+    assert flown <= float(lpm.verify.fly(five).terminal_error[0]), flown
+
+
 def test_impulsive_delta_v_is_the_impulse(case):
     _, sol = case
     dv = np.asarray(sol.stats["v_post"]) - np.asarray(sol.stats["v_pre"])

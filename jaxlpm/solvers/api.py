@@ -12,7 +12,8 @@ compiled solver; every family returns a `Solution`.
 | `FuelOptimalTransfer`   | "homotopy" (any e and model)            | 24 LGR segments of 8  |
 | `LQRTransfer`           | "riccati" (exact Riccati sweep)         | 512 steps (an int)    |
 | `ImpulsiveIntercept`    | "shooting" (Lambert + J2 Newton)        | none (grid=None)      |
-| `FiniteBurnIntercept`   | "augmented-lagrangian" (LGL burn arc)   | lgl(5)                |
+| `FiniteBurnIntercept`   | "augmented-lagrangian" (LGL burn arc)   | lgl(5), raised to 9,  |
+|                         |                                         | 13, 21 points         |
 
 Grids count their points: `lgl(65)` has 65 LGL points (Mei 2010's degree N = 64).
 """

@@ -49,8 +49,10 @@ unit-direction equality with them (`least_squares_start`). The impulse (t_b, dv)
 is the problem's seed, or else the intercept's impulsive solution (`jaxlpm.solvers.impulsive`,
 its own compiled program).
 
-`jaxlpm.solve(FiniteBurnIntercept(...), lgl(n))` (method "augmented-lagrangian", default grid
-lgl(5); one concrete solve runs on lgl(n) padded to 21 points, `run`) returns a `Solution`
+`jaxlpm.solve(FiniteBurnIntercept(...), lgl(n))` (method "augmented-lagrangian"; one concrete
+solve runs on lgl(n) padded to 21 points, `run`; without a grid, one concrete problem is solved
+on lgl(5) and, while its estimate exceeds the tolerance, on 9, 13 and 21 points,
+`refine_degree`; traced, on lgl(5)) returns a `Solution`
 (frame "inertial", trajectory `jaxlpm.solution.FiniteBurn`, on lgl(n)):
   cost      the burn duration D (s), the objective (fuel = mdot D: stats["fuel"], and
             `propellant(mass, isp)` gives the same by the rocket equation)
@@ -65,7 +67,8 @@ lgl(5); one concrete solve runs on lgl(n) padded to 21 points, `run`) returns a 
             (augmented-Lagrangian solves), newton_iterations, node_masses (kg),
             node_directions (unit, inertial), seed_time (s), seed_dv (m/s), seed_status,
             the error estimate (`arc_accuracy`: error_position m, error_velocity m/s,
-            relative_error, segment_error, path_violation)
+            relative_error, segment_error, path_violation); points (the LGL points of
+            the grid `refine_degree` ended on; only without a grid)
   status    SUCCESS; INACCURATE (converged, the estimate above the tolerance); the seed's
             failure (an impulsive solve that failed: its status);
             INFEASIBLE (eq. (2)'s burn does not fit between 0 and t_f: the engine is too weak
@@ -475,6 +478,28 @@ def run(problem, grid, method, options: FiniteBurnOptions) -> Solution:
     return solution if solve_grid is grid else unpadded(solution, grid)
 
 
+REFINE_POINTS = (DEFAULT_POINTS, 9, 13, PAD_CAPACITY)
+"""The LGL grids `solve(problem)` climbs: the burn is one smooth arc, so its degree is raised
+(p refinement) rather than the arc split; every grid up to `PAD_CAPACITY` points runs the same
+padded program (`run`), so a rung compiles nothing."""
+
+
+def refine_degree(problem, options, judge, points=REFINE_POINTS):
+    """`solve(problem)` without a grid, for one concrete problem: the burn on lgl(n) for n in
+    `points` (5, 9, 13, 21) until its error estimate meets the tolerance (`judge`); a failure
+    that more points do not cure (not INACCURATE) ends it, and at the last grid INACCURATE
+    stays. A batch of problems (thrust with a leading axis) is solved on lgl(5). stats gain
+    "points", the LGL points of the grid it ended on."""
+    if np.ndim(problem.thrust) != 0:
+        return judge(run(problem, lgl(DEFAULT_POINTS), "augmented-lagrangian", options))
+    for n in points:
+        solution = judge(run(problem, lgl(n), "augmented-lagrangian", options))
+        if int(solution.status) != Status.INACCURATE:
+            break
+    return solution.replace(stats=dict(solution.stats, points=jnp.int32(n)))
+
+
 FAMILY = FamilySolver(problem=FiniteBurnIntercept,
                       methods={"augmented-lagrangian": FiniteBurnOptions}, run=run,
-                      default_grid=lambda problem: lgl(DEFAULT_POINTS), check_grid=check_grid)
+                      default_grid=lambda problem: lgl(DEFAULT_POINTS), check_grid=check_grid,
+                      refine=refine_degree, refine_method="augmented-lagrangian")
