@@ -15,7 +15,7 @@ rung to the next:
               is; a segment where a safety constraint is violated between the nodes beyond
               the tolerance weighs as the least accurate one times the excess to the fourth
               (`jaxlpm.solution.accuracy.refinement_error`);
-  p (degree)  a rung that raises n keeps the breaks and gives every segment its points.
+  p (degree)  a rung that raises n keeps the breaks and gives every segment its n points.
 The default ladder raises the degree first and then splits (4 x 16, 4 x 32, 8 x 32, 16 x 32),
 the order of Patterson et al.'s ph method: over 250 members of the robustness dispersion
 (two-body, experiments/robustness_refined.py --ladder) the degree raise to 4 x 32 cured 104
