@@ -7,9 +7,10 @@ segment):
   p then h   4 x 16, 4 x 32, 8 x 32, 16 x 32   (the default `DEFAULT_LADDER`)
   h          4 x 16, 8 x 16, 16 x 16, 32 x 16  (split only: the default until 2026-12-07)
   h, p, h    4 x 16, 8 x 16, 8 x 32, 16 x 32
-Each is run once by `jaxlpm.batch.refine.refine_batch` (compiling its rungs; the members per
-final rung and the statuses printed), then --repeats times more, the ladders alternating, in
-steady state (the noise of a shared VM falls on all of them alike).
+Each is run once by `jaxlpm.batch.refine.refine_batch` (compiling the rungs that no ladder
+before it compiled: its first-pass time is not a compile comparison; the members per final
+rung and the statuses printed), then --repeats times more, the ladders alternating, in steady
+state (the noise of a shared VM falls on all of them alike).
 
 Run:  PYTHONPATH=. python experiments/benchmarks/bench_ladders.py [--n 250] [--model two-body]
       [--repeats 3] [--out results/bench_ladders.json]

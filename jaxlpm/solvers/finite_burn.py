@@ -104,6 +104,7 @@ from ..solution.accuracy import accuracy_stats
 from ..status import Status
 from .family import FamilySolver
 from .impulsive import compiled_solve as compiled_impulsive
+from .refine import first_accurate
 
 LENGTH = 1.0e7            # m: length scale of the collocated state
 MIN_POINTS = 3
@@ -492,10 +493,8 @@ def refine_degree(problem, options, judge, points=REFINE_POINTS):
     "points", the LGL points of the grid it ended on."""
     if np.ndim(problem.thrust) != 0:
         return judge(run(problem, lgl(DEFAULT_POINTS), "augmented-lagrangian", options))
-    for n in points:
-        solution = judge(run(problem, lgl(n), "augmented-lagrangian", options))
-        if int(solution.status) != Status.INACCURATE:
-            break
+    solution, n = first_accurate(
+        lambda n: judge(run(problem, lgl(n), "augmented-lagrangian", options)), points)
     return solution.replace(stats=dict(solution.stats, points=jnp.int32(n)))
 
 

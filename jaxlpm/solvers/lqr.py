@@ -71,6 +71,7 @@ from ..solution import HamiltonianFlow, Solution, zero_invalid
 from ..solution.accuracy import accuracy_stats
 from ..status import Status
 from .family import FamilySolver
+from .refine import first_accurate
 from .riccati import CareProblem, CareSolution, balancing, care
 
 STEPS = 512               # default sweep steps over the horizon
@@ -281,10 +282,8 @@ def refine_steps(problem, options, judge, steps=REFINE_STEPS):
     """`solve(problem)` without a grid: the sweep on `steps` (512 up to 4096) until its error
     estimate meets the tolerance (`flight_accuracy`: the steps must resolve the closed loop's
     fastest mode); at the last, INACCURATE stays. stats gain "steps"."""
-    for count in steps:
-        solution = judge(run(problem, count, "riccati", options))
-        if int(solution.status) != Status.INACCURATE:
-            break
+    solution, count = first_accurate(
+        lambda n: judge(run(problem, n, "riccati", options)), steps)
     return solution.replace(stats=dict(solution.stats, steps=count))
 
 

@@ -129,3 +129,15 @@ def refine(solve_on, guess, ladder: MeshLadder, judge):
         if Status(int(solution.status)) in STOP:
             break
     return solution
+
+
+def first_accurate(solve_at, values):
+    """(solution, value): solve_at(value) (a judged `Solution`) for each of `values` in turn
+    until one is not INACCURATE, or the last: the refinement of a family whose grid is one
+    number (the LQR sweep's steps, the finite burn's LGL points)."""
+    for value in values:
+        solution = solve_at(value)
+        if int(solution.status) != Status.INACCURATE:
+            break
+    return solution, value
+
