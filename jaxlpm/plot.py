@@ -110,7 +110,7 @@ def _sample_members(solutions, tau):
 
 
 def _evaluator():
-    """`_sample_members`, compiled once per solution structure and number of samples (and
+    """`_sample_members`, compiled once per trajectory structure and number of samples (and
     kept on disk: `jaxlpm.compilation`)."""
     global _EVALUATE
     if _EVALUATE is None:
@@ -139,8 +139,12 @@ def _members(source, samples: int) -> dict:
     if _is_solution(source):
         batch = np.shape(source.status)
         flat = _flatten_members(source, batch)
+        # its evaluable part only: one program serves every solution of a trajectory kind and
+        # size, whatever its problem and stats (the whole solution's pytree made a key per
+        # stats layout, and JAX's cache then served the second without a disk entry: 0.5 s of
+        # tracing in every warm `jaxlpm reproduce mei2010`)
         t, x, u, node_t, node_x, node_ct, node_u = (np.asarray(a) for a in _evaluator()(
-            flat, np.linspace(0.0, 1.0, int(samples))))
+            flat.evaluable(), np.linspace(0.0, 1.0, int(samples))))
         xf = getattr(source.problem, "xf", None)
         target = None
         if xf is not None and source.frame == "LVLH":

@@ -63,20 +63,24 @@ def test_executable_cached_across_processes(tmp_path):
     assert second == first            # the same executable: bit-identical numbers
 
 
-def test_executable_from_jax_cache_is_not_written(tmp_path):
-    """An executable JAX's persistent cache supplied is not written to this cache: written,
-    it failed when loaded in the next process ("Function and_and_fusion not found",
-    `jaxlpm.compilation`). Here the first process fills both caches, this one is emptied,
-    and the second process (the program from JAX's cache) must leave it empty and give the
-    same numbers."""
+def test_program_in_jax_cache_is_compiled_afresh_for_the_disk(tmp_path):
+    """An executable JAX's persistent cache supplied is not what is written to this cache:
+    written, it failed when loaded in the next process ("Function and_and_fusion not found",
+    `jaxlpm.compilation`); left unwritten, every later process traced the program again. Here
+    the first process fills both caches; twice (as after two upgrades of jaxlpm: the fresh
+    compile must not have entered JAX's cache either), this one is emptied and the next
+    process (the program in JAX's cache) must write a fresh compile; a last one must load it
+    without tracing and give the same numbers."""
     ours, theirs = tmp_path / "jaxlpm", tmp_path / "jax"
     first = _run(ours, "compile", theirs)
     entries = list((ours / "executables").glob("*.bin"))
     assert entries and list(theirs.iterdir())
-    for entry in entries:
-        entry.unlink()
-    assert _run(ours, "compile", theirs) == first
-    assert not list((ours / "executables").glob("*.bin"))
+    for _ in range(2):
+        for entry in (ours / "executables").glob("*.bin"):
+            entry.unlink()
+        assert _run(ours, "compile", theirs) == first
+        assert len(list((ours / "executables").glob("*.bin"))) == len(entries)
+    assert _run(ours, "forbid-trace", theirs) == first
 
 
 def test_unreadable_entry_is_a_miss(tmp_path):
