@@ -35,11 +35,19 @@ def main(argv=None):
     ap.add_argument("--scheme", default="LGR", choices=("LGR", "LG"))
     ap.add_argument("--rho-max", type=float, default=None, help="the penalty's cap")
     ap.add_argument("--max-outer", type=int, default=None)
+    ap.add_argument("--tol-path", type=float, default=None, help="the path tolerance")
+    ap.add_argument("--inner", type=int, default=None, help="Newton iterations a subproblem")
+    ap.add_argument("--eps", default=None, help="the continuation's schedule, e.g. 1,0.3,0.1")
     args = ap.parse_args(argv)
     al = approach.FUEL_OPTIONS.al
     al = dataclasses.replace(al, rho_max=args.rho_max or al.rho_max,
-                             max_outer=args.max_outer or al.max_outer)
+                             max_outer=args.max_outer or al.max_outer,
+                             tol_path=args.tol_path or al.tol_path,
+                             inner=dataclasses.replace(
+                                 al.inner, max_iterations=args.inner or al.inner.max_iterations))
     options = dataclasses.replace(approach.FUEL_OPTIONS, al=al)
+    if args.eps:
+        options = dataclasses.replace(options, eps=tuple(float(v) for v in args.eps.split(",")))
     _, fuel = approach.problems()
     judge, sol = Judge(), None
     names = approach.CONSTRAINT_NAMES + ("thrust_bound",)

@@ -52,11 +52,12 @@ def test_every_continuation_step_converges(solved):
 def test_zone_and_bound_hold_at_the_points_and_cost_more(solved):
     held, _, free = solved
     r = np.linalg.norm(np.asarray(held.node_states)[:, :3], axis=1)
-    # the augmented Lagrangian's tolerance: g = 1 - |r|^2 / R^2 <= 1e-7
-    assert np.min(r) >= 1500.0 * (1.0 - 1e-7)
+    # the augmented Lagrangian's tolerance (FuelALOptions().al.tol_path): g = 1 - |r|^2 / R^2
+    # <= 1e-6, so |r| >= R (1 - 1e-6); the bound's g = |u|^2 / u_max^2 - 1 <= 1e-6 likewise
+    assert np.min(r) >= 1500.0 * (1.0 - 1e-6)
     assert np.min(r) <= 1500.0 * (1.0 + 1e-3)          # active: it rides the sphere
     u = np.linalg.norm(np.asarray(held.node_controls), axis=1)
-    assert np.max(u) <= float(held.problem.max_acceleration) * (1.0 + 1e-7)
+    assert np.max(u) <= float(held.problem.max_acceleration) * (1.0 + 1e-6)
     assert float(held.cost) > float(free.cost) * 1.01
     assert float(held.stats["fuel"]) > 0.0
 
@@ -79,8 +80,8 @@ def test_inactive_zone_matches_the_condensed_homotopy(solved):
 
 def test_delta_v_gradient_with_respect_to_the_zone():
     """The implicit gradient at the final KKT point against central differences (step 0.5 m:
-    the delta-v is smooth in R while the active set stays; both solves converge to 1e-7 in
-    the path values, ~1e-9 in the delta-v)."""
+    the delta-v is smooth in R while the active set stays; both solves converge to 1e-6 in
+    the path values)."""
     def dv(R):
         return lpm.solve(flyby(R), MESH, throw=False).cost
 

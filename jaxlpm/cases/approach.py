@@ -59,14 +59,15 @@ ABORT_RADIUS, ABORT_UNTIL, ABORT_SAMPLES = 100.0, 0.5, 16   # m, fraction, drift
 ENERGY_LADDER = MeshLadder(((16, 8), (24, 8), (32, 8)))
 # the fuel family's augmented-Lagrangian settings for the energy-optimal solve too: with the
 # safety family's default tol_path (1e-9) its outer loop did not converge on 16 x 8 points
-# (30 outer iterations, the abort-safety drift 96 m inside its sphere); with 1e-7 (5e-8 of a
-# zone's radius) it converges in 13
+# (30 outer iterations, the abort-safety drift 96 m inside its sphere); with the fuel family's
+# 1e-7 (until 2026-12-07) it converged in 13, and with its 1e-6 (5e-7 of a zone's radius) too
 ENERGY_OPTIONS = FuelALOptions().al
 FUEL_SEGMENTS, FUEL_POINTS = 16, 8
 # the continuation stops at eps = 0.01 (delta-v within eps / (1 - eps) = 1 % of the mesh's fuel
 # optimum by the smoothing bound): with the family's default schedule its last step (3e-3)
-# reached 40 outer iterations with the path residual at 5e-6 (MAX_ITERATIONS); the delta-v of
-# that iterate differs from eps = 0.01's by 4e-5 relative (measured 2026-12-05, docs/approach.md)
+# reaches 40 outer iterations (MAX_ITERATIONS); the delta-v of that iterate is 2.7e-5 relative
+# below eps = 0.01's (measured 2026-12-07 by experiments/approach_fuel_meshes.py --segments 16
+# --eps 1,0.3,0.1,0.03,0.01,0.003, docs/approach.md)
 FUEL_OPTIONS = FuelALOptions(eps=(1.0, 0.3, 0.1, 0.03, 0.01))
 CONSTRAINT_NAMES = ("keep_out_m", "approach_cone_m", "speed_limit_mps", "passive_safety_m")
 
@@ -226,7 +227,7 @@ NOTES = [
     f"by {FUEL_OPTIONS.smoothing:g} u_max (jaxlpm.solvers.fuel_constrained): its delta-v "
     f"exceeds the same mesh's fuel optimum by at most a fraction eps / (1 - eps). With the "
     f"family's default schedule the step at eps = 3e-3 stalls on this case (40 outer "
-    f"iterations, path residual 5e-6), its delta-v 4e-5 relative below eps = 0.01's.",
+    f"iterations, MAX_ITERATIONS), its delta-v 2.7e-5 relative below eps = 0.01's.",
     "A status INACCURATE means converged on the mesh with an error estimate or a violation "
     "between the nodes above the default tolerance (0.1 m, 1e-4 m/s, 1e-4 m/s of delta-v "
     "beyond the thrust bound); the numbers say by how much.",
