@@ -21,19 +21,19 @@ every time. An executable loads in well under a second (bench_compile.py, 2026-1
 KKT law 0.13 s, the Newton-KKT transfer 0.49 s).
 
 An executable that JAX's persistent cache supplied (a program it had kept from an earlier
-compile) is not the one written to disk: serialized again, such an executable fails when loaded in
-another process ("NOT_FOUND: Function and_and_fusion not found", jaxlib 0.10.2; reproduced
-2026-12-06 by filling JAX's cache, emptying this one and running `jaxlpm reproduce mei2010`
-twice: all 9 entries written by the second run failed in a third). The program is compiled once
-more instead, with `FRESH_OPTION` added to its options: an XLA option that only matters when
-XLA dumps its programs (none here) but is part of JAX's cache key, so XLA compiles it (and
-JAX's cache does not keep it), and that executable is written. Without it, a program JAX's
-cache held (after any change of jaxlpm's source, which keys this cache and not JAX's, or of the
-argument structure of a program whose compiled code is the same) was traced and lowered again
-in every later process: measured 2026-12-07, a warm `jaxlpm reproduce mei2010` after an edit of
-one module spent 13 s in its prefetch instead of 0.5 s, run after run. The first call of an
-executable loaded from disk still runs to the end and, on such an error, the program is
-compiled afresh, overwriting the entry.
+compile) is not the one written to disk: serialized again, such an executable fails when
+loaded in another process ("NOT_FOUND: Function and_and_fusion not found", jaxlib 0.10.2;
+reproduced 2026-12-06 by filling JAX's cache, emptying this one and running `jaxlpm reproduce
+mei2010` twice: all 9 entries written by the second run failed in a third). The program is
+compiled once more instead, with `FRESH_OPTION` added to its options: an XLA option that only
+matters when XLA dumps its programs (none here) but is part of JAX's cache key, so XLA
+compiles it (and JAX's cache does not keep it), and that executable is written. Without it, a
+program JAX's cache held (after any change of jaxlpm's source, which keys this cache and not
+JAX's, or of the argument structure of a program whose compiled code is the same) was traced
+and lowered again in every later process: measured 2026-12-07, a warm `jaxlpm reproduce
+mei2010` after an edit of one module spent 13 s in its prefetch instead of 0.5 s, run after
+run. The first call of an executable loaded from disk still runs to the end and, on such an
+error, the program is compiled afresh, overwriting the entry.
 
 Profiles (`set_profile`, or the environment variable JAXLPM_COMPILE):
   "fast" (default)  XLA:CPU with LLVM's optimisation level 0 and the classic loop emitters
@@ -303,11 +303,12 @@ class Compiled:
         # cache (its executables were the first seen to fail when loaded, before the cause
         # in the module docstring was found)
         path = _entry(key) if self.on_disk and profile() == "fast" else None
-        if path is not None and from_jax_cache and path.exists():
-            path = None                 # another process (a test worker) has just written it
+        unkept = _jax_cache_not_written() if path is not None and from_jax_cache else None
+        if from_jax_cache and (unkept is None or path.exists()):
+            path = None     # no way past JAX's cache, or another process has just written it
         if path is not None and from_jax_cache:
             t1 = time.perf_counter()
-            with _jax_cache_not_written():
+            with unkept:
                 fresh, again = _compile_counting(lowered,
                                                  {**compiler_options(), **FRESH_OPTION})
             event["fresh_compile_s"] = time.perf_counter() - t1
@@ -329,10 +330,12 @@ def _jax_cache_not_written():
     """A context (this thread) in which JAX's persistent cache keeps no new program: the fresh
     compile under `FRESH_OPTION` must not enter it, or the next fresh compile of the program
     (after another change of jaxlpm's source) would come from it again. JAX's minimum compile
-    time for a cache entry is a thread-local setting; it has no public name in jax 0.10."""
+    time for a cache entry is a thread-local setting; it has no public name in jax 0.10. None
+    where this jax lacks it: the program is then not written (as before 2026-12-07)."""
     from jax._src import config
 
-    return config.persistent_cache_min_compile_time_secs(float("inf"))
+    setting = getattr(config, "persistent_cache_min_compile_time_secs", None)
+    return None if setting is None else setting(float("inf"))
 
 
 def _compile_counting(lowered, options):
