@@ -19,8 +19,9 @@ of the SUCCESS members, the table by e and revolutions, wall time against the ba
 compiles and flights: every rung's members are flown, so a member refined three times flies
 three times); --timing N adds the solve-only steady-state time of both on the first N
 problems. --ladder KxN,KxN,... refines on another ladder of LGR meshes (segments x points per
-segment; default the library's `DEFAULT_LADDER`, h only): `4x16,4x32,8x32,16x32` raises the
-degree first (docs/accuracy.md, "Raising the degree or splitting").
+segment; default the library's `DEFAULT_LADDER`, 4x16,4x32,8x32,16x32: the degree raised
+first); `4x16,8x16,16x16,32x16` is the split-only ladder that was the default until
+2026-12-07 (docs/accuracy.md, "Raising the degree or splitting").
 """
 
 import argparse

@@ -303,17 +303,12 @@ class Compiled:
         # cache (its executables were the first seen to fail when loaded, before the cause
         # in the module docstring was found)
         path = _entry(key) if self.on_disk and profile() == "fast" else None
-        unkept = _jax_cache_not_written() if path is not None and from_jax_cache else None
-        if from_jax_cache and (unkept is None or path.exists()):
-            path = None     # no way past JAX's cache, or another process has just written it
         if path is not None and from_jax_cache:
+            # another process (a test worker) may just have written it
             t1 = time.perf_counter()
-            with unkept:
-                fresh, again = _compile_counting(lowered,
-                                                 {**compiler_options(), **FRESH_OPTION})
+            fresh = None if path.exists() else _compiled_past_jax_cache(lowered)
             event["fresh_compile_s"] = time.perf_counter() - t1
-            path = None if again else path
-            executable = executable if again else fresh
+            path, executable = (None, executable) if fresh is None else (path, fresh)
         events.append(event)
         if path is not None:
             _store(path, executable)
@@ -326,16 +321,21 @@ docstring): it changes only what XLA writes when it dumps programs, and JAX's ca
 keeps it (unlike the xla_dump_to family, which the key clears)."""
 
 
-def _jax_cache_not_written():
-    """A context (this thread) in which JAX's persistent cache keeps no new program: the fresh
-    compile under `FRESH_OPTION` must not enter it, or the next fresh compile of the program
-    (after another change of jaxlpm's source) would come from it again. JAX's minimum compile
-    time for a cache entry is a thread-local setting; it has no public name in jax 0.10. None
-    where this jax lacks it: the program is then not written (as before 2026-12-07)."""
+def _compiled_past_jax_cache(lowered):
+    """The program compiled with `FRESH_OPTION` and kept out of JAX's persistent cache (or the
+    next fresh compile of it, after another change of jaxlpm's source, would come from that
+    cache again), by JAX's minimum compile time for a cache entry: a thread-local setting
+    without a public name in jax 0.10. None where this jax lacks it, or JAX's cache supplied
+    the program all the same: it is then not written (as before 2026-12-07)."""
     from jax._src import config
 
     setting = getattr(config, "persistent_cache_min_compile_time_secs", None)
-    return None if setting is None else setting(float("inf"))
+    if setting is None:
+        return None
+    with setting(float("inf")):
+        executable, from_jax_cache = _compile_counting(lowered,
+                                                       {**compiler_options(), **FRESH_OPTION})
+    return None if from_jax_cache else executable
 
 
 def _compile_counting(lowered, options):

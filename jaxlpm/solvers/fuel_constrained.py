@@ -91,7 +91,8 @@ class FuelALOptions:
     # with its switches ended MAX_ITERATIONS at eps = 3e-3 (the path residual cycling between
     # 4.2e-7 and 4.8e-7 at weakly active bound points next to the switches, stationarity 0.97
     # after 40 outer iterations); with 1e-6 and 80 every step of all 7 passes of its default
-    # solve converged (experiments/fuel_constrained_flyby.py --refine, docs/accuracy.md).
+    # solve converged (experiments/fuel_constrained_flyby.py --refine; docs/fuel-optimal.md,
+    # "Limits").
     # A larger rho only ruins the inner problems' conditioning (rho 1e10 left stationarity at
     # 1e2 on that flyby).
     al: ALOptions = field(default_factory=lambda: ALOptions(
