@@ -29,7 +29,7 @@ import numpy as np
 from .._validation import require_x64
 from ..collocation import lgl
 from ..status import Status
-from ..verify.fly import flight_model, propagate_linear, propagate_nonlinear
+from ..verify.fly import flight_model, propagate_linear, propagate_nonlinear, step_times
 from ..mapping import map_in_groups
 from .family import SweepFamily, problem_table, solution_record
 from .sweep import PERCENTILES, converged_statistics, sweep
@@ -139,15 +139,16 @@ def execution_draws(key, n: int, errors: ExecutionErrors) -> dict:
                                      errors.velocity * jax.random.normal(k_v, (n, 3), f64)], 1))
 
 
-def _fly(d, control, problem, duration, model, j2, r_eq):
+def _fly(d, control, problem, duration, model, j2, r_eq, steps):
     """One sample: the planned control with its errors, from the erroneous initial state."""
     u = _ErroneousControl(control, d["gain"], _rotation(d["axis"], d["angle"]))
     x0 = problem.x0 + d["dx0"]
     if model == "linear":
-        _, xs, status = propagate_linear(problem.orbit, x0, duration, u, n_save=2)
+        _, xs, status = propagate_linear(problem.orbit, x0, duration, u, n_save=2,
+                                         steps=steps)
     else:
         _, xs, status = propagate_nonlinear(problem.orbit, x0, duration, u, n_save=2, j2=j2,
-                                            r_eq=r_eq)
+                                            r_eq=r_eq, steps=steps)
     ok = status == Status.SUCCESS
     miss = xs[-1] - problem.xf
     return dict(final_state=xs[-1], position_miss=jnp.linalg.norm(miss[:3]),
@@ -157,15 +158,15 @@ def _fly(d, control, problem, duration, model, j2, r_eq):
 
 
 @functools.partial(jax.jit, static_argnames=("model", "batch_size"))
-def _fly_all(draws, control, problem, duration, j2, r_eq, model, batch_size):
+def _fly_all(draws, control, problem, duration, j2, r_eq, model, batch_size, steps=None):
     """The error-free flight (row 0) and every sample's, through one traced integrator (the
     nominal rides in the batch); one compile per (model, control kind, batch size, sample
     count), whatever the plan's grid size (the control is padded to a fixed size)."""
     nominal = dict(gain=jnp.ones(1), axis=jnp.array([[0.0, 0.0, 1.0]]), angle=jnp.zeros(1),
                    dx0=jnp.zeros((1, 6)))
     rows = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), nominal, draws)
-    return map_in_groups(lambda d: _fly(d, control, problem, duration, model, j2, r_eq), rows,
-                         batch_size)
+    return map_in_groups(lambda d: _fly(d, control, problem, duration, model, j2, r_eq, steps),
+                         rows, batch_size)
 
 
 def execution_monte_carlo(key, plan, n: int, errors: ExecutionErrors, model: str | None = None,
@@ -193,7 +194,7 @@ def execution_monte_carlo(key, plan, n: int, errors: ExecutionErrors, model: str
         raise ValueError(f"n must be a positive number of samples, got {n}")
     draws = execution_draws(key, int(n), errors)
     rows = _fly_all(draws, plan.trajectory.flight_control(), problem, plan.duration, j2, r_eq,
-                    model, min(int(batch_size), int(n) + 1))
+                    model, min(int(batch_size), int(n) + 1), step_times(plan.trajectory))
     rows = {k: np.asarray(v) for k, v in rows.items()}
     out = {**{k: np.asarray(v) for k, v in draws.items()}, **{k: v[1:] for k, v in rows.items()}}
     out["model"] = model

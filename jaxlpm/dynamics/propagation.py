@@ -84,10 +84,14 @@ def _runtime_checks_as_nan():
         errors.EQX_ON_ERROR = "raise"
 
 
-def solve_ode(rhs, y0, t0, t1, ts, integrator: Integrator):
+def solve_ode(rhs, y0, t0, t1, ts, integrator: Integrator, step_ts=None):
     """Integrate dy/dt = rhs(t, y) (y any pytree) from t0 to t1 with PID-controlled adaptive
     steps (dt0 chosen by diffrax) and the `integrator`'s settings; never raises (diffrax
-    throw=False), also under jit/vmap.
+    throw=False), also under jit/vmap. step_ts: times in (t0, t1) that the steps land on
+    (diffrax's `ClipStepSizeController`), one inside each piece of a piecewise control: an
+    adaptive step grown over a coast would otherwise step over a burn shorter than itself
+    unseen (a step to the piece's break itself, or diffrax's jump_ts, would evaluate a
+    control of the chief's integrated anomaly on either side of its jump there).
 
     Returns (ys at the times `ts`, or with ts None at t1 alone (a leading axis of 1), status
     int32): SUCCESS; MAX_ITERATIONS when max_steps ran out
@@ -110,8 +114,7 @@ def solve_ode(rhs, y0, t0, t1, ts, integrator: Integrator):
             getattr(diffrax, integrator.solver)(), t0, t1, dt0=None, y0=blank(y0),
             saveat=diffrax.SaveAt(t1=True) if ts is None else diffrax.SaveAt(ts=ts),
             max_steps=integrator.max_steps,
-            stepsize_controller=diffrax.PIDController(rtol=integrator.rtol,
-                                                      atol=integrator.atol),
+            stepsize_controller=_controller(diffrax, integrator, step_ts),
             adjoint=getattr(diffrax, integrator.adjoint)(), throw=False)
     success = (sol.result == diffrax.RESULTS.successful) & _all_finite(sol.ys)
     out_of_steps = sol.result == diffrax.RESULTS.max_steps_reached
@@ -119,6 +122,13 @@ def solve_ode(rhs, y0, t0, t1, ts, integrator: Integrator):
                         [Status.NONFINITE, Status.SUCCESS, Status.MAX_ITERATIONS],
                         Status.NONFINITE)
     return sol.ys, status.astype(jnp.int32)
+
+
+def _controller(diffrax, integrator: Integrator, step_ts):
+    pid = diffrax.PIDController(rtol=integrator.rtol, atol=integrator.atol)
+    if step_ts is None or jnp.size(step_ts) == 0:
+        return pid
+    return diffrax.ClipStepSizeController(pid, step_ts=step_ts)
 
 
 def _scales(state, mu):

@@ -227,6 +227,18 @@ class Collocated:
         speed = jnp.linalg.norm(self.node_controls, axis=-1)
         return jnp.sum(self.grid.weights * self.dt_dtau * speed, axis=-1)
 
+    def step_times(self):
+        """Times (s) of the middles (in tau) of a `Mesh`'s segments, which a flight of the
+        control steps to (`jaxlpm.verify.fly`), so that no adaptive step passes over a
+        segment, and a short burn in it, unseen; None on a single grid."""
+        if not isinstance(self.grid, Mesh):
+            return None
+        middles = 0.5 * (self.grid.breaks[1:] + self.grid.breaks[:-1])
+        if self.clock == "uniform":
+            return 0.5 * (middles + 1.0) * self.state_times[-1]
+        return jax.vmap(lambda tau: self.grid.interpolate_state(
+            self._support(self.state_times), tau))(middles)
+
     def flight_control(self) -> ControlInterpolant:
         """The control as a propagator calls it: of the chief's anomaly for the anomaly
         clocks, of time for the uniform one."""

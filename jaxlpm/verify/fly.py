@@ -91,18 +91,19 @@ def _state_scale(x0, orbit):
     return jnp.concatenate([jnp.full(3, length), jnp.full(3, length * orbit.mean_motion)])
 
 
-def _integrate(rhs, y0, scale, duration, n_save):
+def _integrate(rhs, y0, scale, duration, n_save, steps=None):
     """dy/dt = rhs(t, y) from 0 to duration in y / scale, saved at n_save uniform times:
-    (times, ys, status), never raising (`solve_ode`)."""
+    (times, ys, status), never raising (`solve_ode`; steps: its step_ts)."""
     ts = jnp.linspace(0.0, 1.0, n_save) * duration
     ys, status = solve_ode(lambda t, y: rhs(t, y * scale) / scale, y0 / scale, 0.0, duration,
-                           ts, FLIGHT)
+                           ts, FLIGHT, steps)
     return ts, ys * scale, status
 
 
-def propagate_linear(orbit, x0, duration, control, n_save: int = N_SAVE):
+def propagate_linear(orbit, x0, duration, control, n_save: int = N_SAVE, steps=None):
     """Fly `control` (a `jaxlpm.solution` control: of time or of the chief's anomaly, m/s^2)
-    through the linearised elliptic LVLH equations in time. x0 (m, m/s) at the orbit's epoch.
+    through the linearised elliptic LVLH equations in time. x0 (m, m/s) at the orbit's epoch;
+    steps: times (s) the integrator steps to (`Collocated.step_times`), or None.
     Returns (times (n_save,), LVLH states (n_save, 6), status)."""
     require_x64()
     e, k2, p, mu = orbit.e, orbit.k2, orbit.p, orbit.mu
@@ -115,15 +116,16 @@ def propagate_linear(orbit, x0, duration, control, n_save: int = N_SAVE):
 
     y0 = jnp.concatenate([x0, jnp.atleast_1d(orbit.f0 + 0.0 * e)])
     scale = jnp.concatenate([_state_scale(x0, orbit), jnp.ones(1)])
-    ts, ys, status = _integrate(rhs, y0, scale, duration, n_save)
+    ts, ys, status = _integrate(rhs, y0, scale, duration, n_save, steps)
     return ts, ys[:, :6], status
 
 
 def propagate_nonlinear(orbit, x0, duration, control, n_save: int = N_SAVE, j2=0.0,
-                        r_eq=R_EARTH):
+                        r_eq=R_EARTH, steps=None):
     """Fly `control` through exact relative motion (two-body, plus J2 on both spacecraft when
-    j2 != 0); the chief starts on `orbit`'s state at its epoch, x0 (m, m/s) LVLH. Returns
-    (times (n_save,), LVLH states (n_save, 6), status)."""
+    j2 != 0); the chief starts on `orbit`'s state at its epoch, x0 (m, m/s) LVLH; steps as
+    `propagate_linear` takes them. Returns (times (n_save,), LVLH states (n_save, 6),
+    status)."""
     require_x64()
     mu = orbit.mu
     rc, vc = elements_to_state(orbit)
@@ -138,7 +140,7 @@ def propagate_nonlinear(orbit, x0, duration, control, n_save: int = N_SAVE, j2=0
     y0 = jnp.concatenate([rc, vc, dr, dv, jnp.atleast_1d(orbit.f0 + 0.0 * orbit.e)])
     scale = jnp.concatenate([jnp.full(3, orbit.a), jnp.full(3, orbit.a * orbit.mean_motion),
                              _state_scale(x0, orbit), jnp.ones(1)])
-    ts, ys, status = _integrate(rhs, y0, scale, duration, n_save)
+    ts, ys, status = _integrate(rhs, y0, scale, duration, n_save, steps)
 
     def to_lvlh(y):
         acc = gravity_acceleration(y[:3], mu, j2, r_eq)
@@ -160,14 +162,15 @@ def _largest_difference(a, b):
 
 
 @compiled(static_argnames=("linear", "n_save"))
-def _fly_lvlh(orbit, x0, xf, duration, control, j2, r_eq, linear, n_save):
+def _fly_lvlh(orbit, x0, xf, duration, control, j2, r_eq, linear, n_save, steps=None):
     """One flight: (times, states, terminal error, status). `control` is padded, so this
-    compiles once per (linear or not, n_save, control kind), whatever the grid's size; j2 = 0
-    is the two-body model."""
+    compiles once per (linear or not, n_save, control kind), whatever the grid's size (a
+    `Mesh`'s control and steps: once per mesh shape); j2 = 0 is the two-body model."""
     if linear:
-        ts, xs, status = propagate_linear(orbit, x0, duration, control, n_save)
+        ts, xs, status = propagate_linear(orbit, x0, duration, control, n_save, steps)
     else:
-        ts, xs, status = propagate_nonlinear(orbit, x0, duration, control, n_save, j2, r_eq)
+        ts, xs, status = propagate_nonlinear(orbit, x0, duration, control, n_save, j2, r_eq,
+                                             steps)
     return ts, xs, terminal_error(xs, xf), status
 
 
@@ -190,6 +193,12 @@ def _plan(solution):
             and tr.grid.scheme == "LGL"):
         tr = tr.padded()
     return solution.replace(trajectory=tr).evaluable()
+
+
+def step_times(trajectory):
+    """The times (s) a flight of the trajectory's control steps to (`Collocated.step_times`:
+    the middles of a `Mesh`'s segments), or None."""
+    return trajectory.step_times() if isinstance(trajectory, Collocated) else None
 
 
 def default_model(problem) -> str:
@@ -226,9 +235,10 @@ def fly(solution, model: str | None = None, n_save: int = N_SAVE) -> Flight:
 
     def one(sol, j2, r_eq):
         p = sol.problem
+        tr = sol.trajectory
         ts, xs, err, status = _fly_lvlh(p.orbit, p.x0, p.xf, sol.duration,
-                                        sol.trajectory.flight_control(), j2, r_eq,
-                                        model == "linear", n_save)
+                                        tr.flight_control(), j2, r_eq, model == "linear",
+                                        n_save, step_times(tr))
         return Flight(ts, xs, err, _plan_difference(_plan(sol), ts, xs), status,
                       model)
 
