@@ -91,6 +91,28 @@ def test_delta_v_gradient_with_respect_to_the_zone():
     assert g == pytest.approx(fd, rel=1e-3)
 
 
+def test_default_solve_is_accurate_when_flown(solved):
+    """The issue-19 acceptance for this family: the fixed 8 x 6 mesh converges but is
+    INACCURATE; the default solve (meshes aligned with the switches, breaks moved so that the
+    partial point at each switch falls in a coasting segment: `switch_margins`) ends SUCCESS,
+    and its own control interpolant, sampled densely here (not the solver's check), keeps
+    within the thrust bound to the tolerance's delta-v and within the zone to its 0.1 m
+    (the zone's radius 1500 m), and flown by an independent integrator it stays within the
+    tolerance of the plan the whole way."""
+    tol = lpm.DEFAULT_TOLERANCE
+    assert int(solved[0].status) == Status.INACCURATE
+    sol = lpm.solve(flyby(1500.0), throw=False)
+    assert int(sol.status) == Status.SUCCESS, sol.message
+    t = np.linspace(0.0, float(sol.duration), 20001)
+    u = np.linalg.norm(np.asarray(sol.controls(t)), axis=1)
+    excess = np.maximum(u - float(sol.problem.max_acceleration), 0.0)
+    assert np.sum(0.5 * (excess[1:] + excess[:-1]) * np.diff(t)) <= tol.path
+    r = np.linalg.norm(np.asarray(sol.states(t))[:, :3], axis=1)
+    assert np.min(r) >= 1500.0 - tol.position
+    plan = np.asarray(lpm.verify.fly(sol).plan_error)
+    assert plan[0] < tol.position and plan[1] < tol.velocity
+
+
 def test_bad_input():
     prob = flyby(1500.0)
     with pytest.raises(ValueError, match="thrust bound"):

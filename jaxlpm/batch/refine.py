@@ -93,8 +93,8 @@ class EnergyPlan:
     def first_breaks(self, k):
         return uniform_breaks(-1.0, 1.0, k)
 
-    def next_breaks(self, carry, k, previous):
-        return split_breaks(carry["breaks"], carry["error"], k)
+    def next_breaks(self, carry, shape, previous):
+        return split_breaks(carry["breaks"], carry["error"], shape[0])
 
     def _mesh(self, breaks, n):
         """The ladder's scheme's mesh (traced breaks: no host checks)."""
@@ -143,10 +143,12 @@ class FuelPlan:
     def first_breaks(self, k):
         return np.asarray(uniform_breaks(0.0, 1.0, k))
 
-    def next_breaks(self, carry, k, previous):
+    def next_breaks(self, carry, shape, previous):
         runs = fuel_optimal.burn_runs(carry["breaks"], self._grid(previous[1]).weights,
                                       carry["throttle"], carry["threshold"])
-        return fuel_optimal.switch_breaks(k, fuel_optimal.interior_switches(runs))
+        return fuel_optimal.switch_breaks(
+            shape[0], runs, self.ladder.scheme, shape[1],
+            fuel_optimal.sharp_switches(carry["throttle"], carry["threshold"]))
 
     def solve(self, problem, breaks, prev, shape, previous, options):
         return fuel_optimal.run(problem, SegmentedMesh(breaks, self._grid(shape[1])),
@@ -185,10 +187,10 @@ class MinTimePlan:
     def first_breaks(self, k):
         return uniform_breaks(0.0 if self.condensed else -1.0, 1.0, k)
 
-    def next_breaks(self, carry, k, previous):
+    def next_breaks(self, carry, shape, previous):
         if self.condensed:
-            return self.first_breaks(k)
-        return split_breaks(carry["breaks"], carry["error"], k)
+            return self.first_breaks(shape[0])
+        return split_breaks(carry["breaks"], carry["error"], shape[0])
 
     def solve(self, problem, breaks, prev, shape, previous, options):
         cls, grid = MESHES[self.ladder.scheme]
@@ -216,7 +218,7 @@ class LQRPlan:
     def first_breaks(self, k):
         return np.zeros(0)
 
-    def next_breaks(self, carry, k, previous):
+    def next_breaks(self, carry, shape, previous):
         return np.zeros(0)
 
     def solve(self, problem, breaks, prev, shape, previous, options):
@@ -344,7 +346,7 @@ def climb(plan, rows: int, active, run_rung, log=None) -> dict:
         breaks = np.tile(plan.first_breaks(k), (rows, 1))
         if carry is not None:
             for i in np.flatnonzero(todo):
-                breaks[i] = plan.next_breaks(_take(carry, i), k, previous)
+                breaks[i] = plan.next_breaks(_take(carry, i), shape, previous)
         recs, carry = run_rung(index, shape, previous, jnp.asarray(breaks),
                                carry if carry is not None and plan.warm_start
                                else jnp.zeros(rows), jnp.asarray(todo))

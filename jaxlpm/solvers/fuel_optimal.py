@@ -40,6 +40,7 @@ collocation points (`_burn_runs`).
 """
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 
 import jax
@@ -48,10 +49,10 @@ import numpy as np
 
 from ..compilation import compiled, pipelined
 from .._validation import is_concrete, require_x64
-from ..collocation import lg_nodes_weights
-from ..collocation.segments import (SEGMENTED_SCHEMES, LGLMesh, SegmentedMesh, aligned_breaks,
-                                   as_segmented, segmented_lgr, segmented_mesh, tau_mesh,
-                                   uniform_breaks)
+from ..collocation import interpolation_matrix, lg_nodes_weights
+from ..collocation.segments import (MESHES, SEGMENTED_SCHEMES, LGLMesh, SegmentedMesh,
+                                   aligned_breaks, as_segmented, segmented_lgr, segmented_mesh,
+                                   tau_mesh, uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
 from ..dynamics.chief import kepler_final_anomaly
 from ..implicit import root
@@ -291,12 +292,77 @@ def check_ladder(ladder: MeshLadder) -> None:
                          f"{ladder.rungs}")
 
 
-def switch_breaks(k: int, switches) -> np.ndarray:
-    """k segments of [0, 1] with a break at every switch (`aligned_breaks`), or uniform ones
-    where k segments cannot hold them all (k below the arcs between the switches)."""
-    if k < np.size(switches) + 1:
+def _cell_edges(weights) -> np.ndarray:
+    """The edges of a segment's quadrature cells as fractions of it (n + 1 values from 0 to 1):
+    point j stands for the cell [sum_{i<j} w_i, sum_{i<=j} w_i] / 2."""
+    return np.concatenate([[0.0], np.cumsum(np.asarray(weights, np.float64))]) / 2.0
+
+
+@functools.lru_cache(maxsize=None)
+def switch_margins(scheme: str, n: int) -> tuple:
+    """(before, after): how far (fractions of the coasting segment beside it) to put a break
+    past a burn's start and short of its end, so that the partial-throttle point that the
+    discrete bang-bang optimum puts at the switch (`burn_runs`) lies in the coasting segment,
+    where the segment's control interpolant keeps within the bound.
+
+    A segment whose points fire fully but for one partial point asks more than u_max between
+    its points (node throttles 1, ..., 1, 0.5 on LGR(8): 1.035 u_max; 0.5, 1, ..., 1: 1.070),
+    and so does a coasting segment whose last point fires much (its interpolant's
+    extrapolation to the segment's end, l_n(1) = 1.6 on LGR(8)). For a switch at each
+    position within a coasting segment the throttles are those of its cells (a burn ending
+    there: 1 on the cells before it, the burned fraction on its own, 0 after; a burn starting
+    there: mirrored), and the interpolant's peak (on 4001 points) stays at most 1 over a
+    window from the segment's end that touches the burn; the margin is half that window, so
+    that the next solution's switch may move by as much either way (measured on the keep-out
+    flyby: docs/fuel-optimal.md, "Limits")."""
+    grid = MESHES[scheme][1](n)
+    edges = 2.0 * _cell_edges(grid.weights) - 1.0
+    lo, hi = edges[:-1], edges[1:]
+    at = interpolation_matrix(grid.points, grid.point_bary, np.linspace(-1.0, 1.0, 4001))
+    candidates = np.linspace(-1.0, 1.0, 2001)
+
+    def window(throttles):            # the safe length from the burn's side, in tau
+        safe = np.array([np.max(np.abs(at @ throttles(t))) <= 1.0 + 1e-12 for t in candidates])
+        return np.argmin(safe) * (candidates[1] - candidates[0]) if not safe.all() else 2.0
+
+    after = window(lambda t: np.clip((t - lo) / (hi - lo), 0.0, 1.0))           # burn ended
+    before = window(lambda t: np.clip((hi + t) / (hi - lo), 0.0, 1.0))  # started at -t
+    return before / 4.0, after / 4.0
+
+
+COAST_RATIO = 2.0   # a break is moved only where the coasting segment beside it is at most
+#                   this many times as long as the burning one: moved beside a much longer
+#                   coasting segment, the partial point falls in one of its large cells, where
+#                   the next switch estimate is too coarse to stay beside the break (the short
+#                   one-segment burns of tests/test_refine_batch.py wandered into their burn
+#                   segments)
+
+
+def switch_breaks(k: int, runs, scheme: str = "LGR", n: int = DEFAULT_POINTS,
+                  sharp=()) -> np.ndarray:
+    """k segments of [0, 1] with a break beside every switch of the burns `runs` (`burn_runs`:
+    (start, end) fractions), or uniform ones where k segments cannot hold them all (k below
+    the arcs between the switches): `aligned_breaks` at the switches, then the break of each
+    bang-bang switch (`sharp`: per run, (start, end) flags of `sharp_switches`; missing: not
+    sharp) moved into the burn by `switch_margins` of the coasting segment beside it (where
+    that is at most `COAST_RATIO` times as long as the burning one beside it), so that the
+    partial point at the switch falls in the coasting segment."""
+    starts = [a for a, _ in runs if 0.0 < a < 1.0]
+    ends = [b for _, b in runs if 0.0 < b < 1.0]
+    if k < len(starts) + len(ends) + 1:
         return uniform_breaks(0.0, 1.0, k)
-    return aligned_breaks(0.0, 1.0, k, switches)
+    b = aligned_breaks(0.0, 1.0, k, starts + ends)
+    before, after = switch_margins(scheme, n)
+    moved = b.copy()
+    for (start, end), (start_sharp, end_sharp) in zip(runs, sharp):
+        for switch, sign, margin in ((start, 1.0, before * start_sharp),
+                                     (end, -1.0, after * end_sharp)):
+            i = int(np.argmin(np.abs(b - switch)))
+            if margin > 0.0 and 0 < i < b.size - 1 and abs(b[i] - switch) <= 1e-12:
+                coast, burn = (b[i] - b[i - 1], b[i + 1] - b[i])[::int(sign)]
+                if coast <= COAST_RATIO * burn:
+                    moved[i] = switch + sign * margin * coast
+    return moved
 
 
 def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None,
@@ -325,7 +391,7 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None,
     for k, n in (rung for rung in ladder.rungs for _ in range(passes)):
         if int(solution.status) != Status.INACCURATE:
             break
-        solution = solve_on(switch_breaks(k, switching_fractions(solution)), n)
+        solution = solve_on(next_breaks(solution, k, n, ladder.scheme), n)
         done += 1
     return solution.replace(stats=dict(solution.stats, mesh_passes=done))
 
@@ -436,7 +502,18 @@ def _burn_runs(sol: Solution):
     """[(start, end)] of the burns as fractions of [s0, s_f] (unbatched solution):
     `burn_runs` of its mesh and throttles."""
     return burn_runs(0.5 * (np.asarray(sol.grid.breaks) + 1.0), sol.grid.segment.weights,
-                     sol.stats["node_throttle"], sol.stats.get("burn_threshold", BURNING))
+                     sol.stats["node_throttle"], _threshold(sol))
+
+
+def _threshold(sol: Solution):
+    return sol.stats.get("burn_threshold", BURNING)
+
+
+def next_breaks(sol: Solution, k: int, n: int, scheme: str) -> np.ndarray:
+    """`switch_breaks` for the next mesh (k segments of n points of `scheme`) from an
+    unbatched solution's burns."""
+    return switch_breaks(k, _burn_runs(sol), scheme, n,
+                         sharp_switches(sol.stats["node_throttle"], _threshold(sol)))
 
 
 def burn_runs(breaks, weights, throttle, threshold=BURNING):
@@ -450,14 +527,12 @@ def burn_runs(breaks, weights, throttle, threshold=BURNING):
     puts one partial point at each switch, where |p| sits within eps of 1, so the primer's
     crossing lies at that point and not at the switch."""
     b = np.asarray(breaks, np.float64)
-    cells = np.concatenate([[0.0], np.cumsum(np.asarray(weights))]) / 2.0
+    cells = _cell_edges(weights)
     lo = (b[:-1, None] + np.diff(b)[:, None] * cells[None, :-1]).reshape(-1)
     hi = (b[:-1, None] + np.diff(b)[:, None] * cells[None, 1:]).reshape(-1)
     w = np.asarray(throttle).reshape(-1)
-    on = w > float(threshold)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
     runs = []
-    for i, j in zip(edges[::2], edges[1::2] - 1):
+    for i, j in _firing(w, threshold):
         if i == j:
             half = 0.5 * w[i] * (hi[i] - lo[i])
             start, end = 0.5 * (lo[i] + hi[i]) - half, 0.5 * (lo[i] + hi[i]) + half
@@ -466,6 +541,27 @@ def burn_runs(breaks, weights, throttle, threshold=BURNING):
         # a run at an end of the transfer burns from (to) that end
         runs.append((0.0 if i == 0 else start, 1.0 if j == w.size - 1 else end))
     return runs
+
+
+def _firing(w, threshold):
+    """[(i, j)]: the runs of consecutive points i..j of the throttles w (flat) above
+    threshold."""
+    on = np.asarray(w) > float(threshold)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
+    return list(zip(edges[::2], edges[1::2] - 1))
+
+
+FULL = 1.0 - 1e-3          # a point fires fully where its throttle is at least this
+
+
+def sharp_switches(throttle, threshold=BURNING):
+    """[(start, end)] per run of `burn_runs`: whether the burn fires fully (`FULL`) at the
+    point next to the switch's partial one, inside the run: a bang-bang switch, where
+    `switch_breaks` moves the break (a burn whose throttle ramps, as a short burn whose
+    primer only touches 1 does, keeps its break at the switch)."""
+    w = np.asarray(throttle).reshape(-1)
+    return [(j > i and w[i + 1] >= FULL, j > i and w[j - 1] >= FULL)
+            for i, j in _firing(w, threshold)]
 
 
 def interior_switches(runs):
@@ -576,7 +672,7 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
             break
         new = []
         for i in range(size[0]):
-            new.append(switch_breaks(segments, switching_fractions(_member(sol, i))))
+            new.append(next_breaks(_member(sol, i), segments, points, scheme))
         breaks = np.stack(new)
     stats = dict(sol.stats, passes=np.full(size[0], len(fuels)),
                  fuel_by_pass=np.stack(fuels, axis=1), fuel_change=change)
