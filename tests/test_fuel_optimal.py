@@ -244,6 +244,24 @@ def test_infeasible_thrust_and_invalid_member():
     assert np.all(np.isfinite(np.asarray(sols.node_states)))
 
 
+def test_a_failed_step_after_a_converged_one_is_not_infeasible():
+    """A transfer of the fuel dispersion (experiments/fuel_refine_dispersion.py, member 36:
+    e = 0.046, 1.49 periods, 0.173 N on 50 kg) whose homotopy converged at eps = 1 with the
+    engine at no more than 37 % of its thrust had ended INFEASIBLE when a later step's dual
+    ascent ran away. The feasible set does not depend on eps, so a failure after a converged
+    step is a smaller step: the homotopy now reaches its last eps and the collocated final
+    state meets the target (the condensed problem's own residual, 1e-6 m: round-off of the
+    final-state equations in the solver's units)."""
+    orbit = KeplerOrbit(a=jnp.asarray(A_CHIEF), e=jnp.asarray(0.0464))
+    prob = FuelOptimalTransfer(orbit, jnp.zeros(6), jnp.array([308.0, -3578.0, -11.0, 0, 0, 0]),
+                               jnp.asarray(8677.0), jnp.asarray(0.173), jnp.asarray(50.0),
+                               jnp.asarray(1000.0))
+    sol = solve(prob, segmented_lgr(uniform_breaks(0.0, 1.0, SEGMENTS), POINTS), throw=False)
+    assert int(sol.status) in (Status.SUCCESS, Status.INACCURATE), sol.message
+    assert float(sol.stats["eps"]) == pytest.approx(HomotopyOptions().eps_min)
+    assert float(sol.stats["terminal_error"][0]) < 1e-6
+
+
 def test_bad_input_raises():
     mesh = segmented_lgr(uniform_breaks(0.0, 1.0, 4), 4)
     with pytest.raises(ValueError, match="model must be one of"):

@@ -325,9 +325,9 @@ def switch_margins(scheme: str, n: int) -> tuple:
         safe = np.array([np.max(np.abs(at @ throttles(t))) <= 1.0 + 1e-12 for t in candidates])
         return np.argmin(safe) * (candidates[1] - candidates[0]) if not safe.all() else 2.0
 
-    after = window(lambda t: np.clip((t - lo) / (hi - lo), 0.0, 1.0))           # burn ended
-    before = window(lambda t: np.clip((hi + t) / (hi - lo), 0.0, 1.0))  # started at -t
-    return before / 4.0, after / 4.0
+    after = window(lambda t: np.clip((t - lo) / (hi - lo), 0.0, 1.0))     # a burn ends at t
+    before = window(lambda t: np.clip((hi + t) / (hi - lo), 0.0, 1.0))   # one starts at -t
+    return before / 4.0, after / 4.0                  # half the window, as a fraction
 
 
 COAST_RATIO = 2.0   # a break is moved only where the coasting segment beside it is at most
