@@ -11,10 +11,11 @@ Unconstrained members: e in [0, 0.5], from rest at the chief to rest at a point 
 [0, 0.15] and the duration in [0.4, 0.6] periods (seed 0).
 
 With --at-switches every break stays at its switch (no `switch_margins`: the refinement
-until 2026-12-07), for a side-by-side comparison.
+until 2026-12-07), for a side-by-side comparison; --scheme LGR (or LG) refines on the
+family's ladder of those segments instead of its own (LG unconstrained, LGR constrained).
 
-    python experiments/fuel_refine_dispersion.py --n 60 [--at-switches]
-    python experiments/fuel_refine_dispersion.py --constrained --n 8 [--at-switches]
+    python experiments/fuel_refine_dispersion.py --n 60 [--at-switches] [--scheme LGR]
+    python experiments/fuel_refine_dispersion.py --constrained --n 6 [--at-switches]
 """
 
 import argparse
@@ -31,6 +32,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxlpm as lpm  # noqa: E402
+from jaxlpm.solvers import fuel_optimal  # noqa: E402
 
 A = 7000e3
 
@@ -59,19 +61,22 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--constrained", action="store_true")
     ap.add_argument("--at-switches", action="store_true", help="breaks at the switches")
+    ap.add_argument("--scheme", default=None, choices=("LGR", "LG"),
+                    help="the segments of the family's ladder (default: its own)")
     args = ap.parse_args()
     if args.at_switches:
-        from jaxlpm.solvers import fuel_optimal
         fuel_optimal.COAST_RATIO = 0.0
     rng = np.random.default_rng(args.seed)
     make = constrained if args.constrained else free
+    ladder = fuel_optimal.CONSTRAINED_LADDER if args.constrained else fuel_optimal.LADDER
+    ladder = lpm.MeshLadder(ladder.rungs, args.scheme or ladder.scheme)
     counts = collections.Counter()
     worst = 0.0
     start = time.perf_counter()
     for i in range(args.n):
         problem = make(rng)
         t = time.perf_counter()
-        sol = lpm.solve(problem, throw=False)
+        sol = lpm.solve(problem, ladder, throw=False)
         status = lpm.Status(int(sol.status)).name
         counts[status] += 1
         miss = np.asarray(lpm.verify.fly(sol, model="linear").plan_error)

@@ -46,7 +46,9 @@ def fuel_batch():
 def test_fuel_members_end_where_their_single_solves_end(fuel_batch):
     """Both members need aligned passes (rung >= 1) and end SUCCESS on the rung and with
     the delta-v of `solve(problem)`: the same meshes (breaks at the same switches) and the
-    same homotopy, so the same numbers to round-off (1e-10 relative)."""
+    same homotopy, so the same numbers to round-off, which the throttle of a partial point
+    amplifies by its slope 1 / (2 eps) = 5e5 at the homotopy's last eps (measured 1.4e-10
+    relative on the family's LG ladder; 1e-9 asserted)."""
     members, out = fuel_batch
     assert np.all(out["status"] == Status.SUCCESS)
     assert np.all(out["rung"] >= 1)
@@ -54,16 +56,17 @@ def test_fuel_members_end_where_their_single_solves_end(fuel_batch):
         single = lpm.solve(problem)
         assert out["rung"][i] == int(single.stats["mesh_passes"]) - 1
         assert out["segments"][i] == single.grid.n_segments
-        assert abs(out["cost"][i] - float(single.cost)) <= 1e-10 * float(single.cost)
+        assert abs(out["cost"][i] - float(single.cost)) <= 1e-9 * float(single.cost)
         assert out["error_position"][i] <= lpm.DEFAULT_TOLERANCE.position
 
 
 def test_fuel_gradient_is_taken_on_the_final_mesh(fuel_batch):
     """d delta-v / d xf_y from the batch (implicit, on the member's final mesh) against
-    central differences of the delta-v on that mesh (h = 1 m of 8 km: the truncation,
-    h^2/6 times the third derivative, and the homotopy's convergence noise over h are below
-    1e-6 of the derivative; measured 1.7e-7; asserted at 1e-5 as in
-    tests/test_fuel_eccentric.py)."""
+    central differences of the delta-v on that mesh (h = 1 m of 8 km). The final mesh (the
+    family's LG ladder) has two points inside the smoothed throttle's transition
+    (stats["partial_throttle"]), whose slope 1 / (2 eps) = 5e5 amplifies the homotopy's
+    residual tolerance (1e-11) in the derivative: measured 1.1e-5 relative at h = 1 m, 1.7e-5
+    at h = 0.1 m (on the LGR ladder, without such points, 1.7e-7); 1e-4 asserted."""
     members, out = fuel_batch
     problem = members[0]
     mesh = lpm.solve(problem).grid
@@ -73,7 +76,7 @@ def test_fuel_gradient_is_taken_on_the_final_mesh(fuel_batch):
 
     y, h = float(problem.xf[1]), 1.0
     fd = (dv(y + h) - dv(y - h)) / (2.0 * h)
-    assert abs(out["dcost_dxf"][0][1] - fd) <= 1e-5 * abs(fd), (out["dcost_dxf"][0][1], fd)
+    assert abs(out["dcost_dxf"][0][1] - fd) <= 1e-4 * abs(fd), (out["dcost_dxf"][0][1], fd)
 
 
 def test_min_time_members_climb_only_where_they_must():

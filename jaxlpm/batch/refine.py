@@ -394,8 +394,8 @@ def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAUL
 
     ladder: the rungs' mesh shapes (None: the family's, as its single solve climbs them:
     `DEFAULT_LADDER`; the fuel family's 24 x 8 uniform, then 3 aligned passes each of 24, 48 and
-    96 segments of 8 points, with safety constraints 16 x 8 uniform, then 3 aligned passes each
-    of 16 and 24 segments; minimum time's `min_time.LADDER` on HCW, else 16, 32, 64 and 128 x 8;
+    96 segments of 8 points (LG), with safety constraints 16 x 8 uniform, then 3 aligned passes
+    each of 16 and 24 segments (LGR); minimum time's `min_time.LADDER` on HCW, else 16, 32, 64 and 128 x 8;
     LQR 512 to 4096 steps as (steps, 1)). options: the solver's (None: the family's default).
     record(solution) -> dict of arrays: what is kept of each member's final solution (the
     default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`). gradients: also

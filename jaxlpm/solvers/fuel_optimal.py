@@ -272,8 +272,11 @@ def _ladder(segments, points=DEFAULT_POINTS, scheme="LGR"):
     return MeshLadder(tuple((k, points) for k in segments), scheme)
 
 
-LADDER = _ladder((DEFAULT_SEGMENTS, 48, 96))
-"""The segment counts `solve(problem)` refines over (LGR, `DEFAULT_POINTS` a segment)."""
+LADDER = _ladder((DEFAULT_SEGMENTS, 48, 96), scheme="LG")
+"""The segment counts `solve(problem)` refines over (LG segments of `DEFAULT_POINTS` points:
+over the 60 transfers of experiments/fuel_refine_dispersion.py 58 ended SUCCESS, against 48
+on the same ladder of LGR segments, whose INACCURATE members all asked the engine more than
+u_max between the points beside short or smoothed switches; docs/fuel-optimal.md)."""
 # with safety constraints the states are kept; this ladder was sized when every Newton-KKT step
 # factored the dense KKT matrix (~1900 unknowns at 16 x 8 points: 0.1-0.2 s). The condensed
 # step makes finer rungs affordable; not yet evaluated as a default (on the approach case the
