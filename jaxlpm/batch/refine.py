@@ -144,11 +144,9 @@ class FuelPlan:
         return np.asarray(uniform_breaks(0.0, 1.0, k))
 
     def next_breaks(self, carry, shape, previous):
-        runs = fuel_optimal.burn_runs(carry["breaks"], self._grid(previous[1]).weights,
-                                      carry["throttle"], carry["threshold"])
-        return fuel_optimal.switch_breaks(
-            shape[0], runs, self.ladder.scheme, shape[1],
-            fuel_optimal.sharp_switches(carry["throttle"], carry["threshold"]))
+        return fuel_optimal.next_breaks(carry["breaks"], self._grid(previous[1]).weights,
+                                        carry["throttle"], carry["threshold"], *shape,
+                                        self.ladder.scheme)
 
     def solve(self, problem, breaks, prev, shape, previous, options):
         return fuel_optimal.run(problem, SegmentedMesh(breaks, self._grid(shape[1])),
@@ -395,11 +393,11 @@ def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAUL
     ladder: the rungs' mesh shapes (None: the family's, as its single solve climbs them:
     `DEFAULT_LADDER`; the fuel family's 24 x 8 uniform, then 3 aligned passes each of 24, 48 and
     96 segments of 8 points (LG), with safety constraints 16 x 8 uniform, then 3 aligned passes
-    each of 16 and 24 segments (LGR); minimum time's `min_time.LADDER` on HCW, else 16, 32, 64 and 128 x 8;
-    LQR 512 to 4096 steps as (steps, 1)). options: the solver's (None: the family's default).
-    record(solution) -> dict of arrays: what is kept of each member's final solution (the
-    default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`). gradients: also
-    the implicit gradient of the cost with respect to every leaf of the problem
+    each of 16 and 24 segments (LGR); minimum time's `min_time.LADDER` on HCW, else 16, 32, 64
+    and 128 x 8; LQR 512 to 4096 steps as (steps, 1)). options: the solver's (None: the
+    family's default). record(solution) -> dict of arrays: what is kept of each member's final
+    solution (the default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`).
+    gradients: also the implicit gradient of the cost with respect to every leaf of the problem
     (`gradient_record`: dcost_dx0, dcost_dduration, dcost_dorbit.e, ...), taken on each member's
     final mesh (its breaks held fixed); energy-optimal, fuel-optimal and LQR (a minimum-time
     solve is not differentiated). Every rung runs on all members (one compiled function per rung

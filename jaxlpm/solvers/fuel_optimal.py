@@ -394,7 +394,7 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None,
     for k, n in (rung for rung in ladder.rungs for _ in range(passes)):
         if int(solution.status) != Status.INACCURATE:
             break
-        solution = solve_on(next_breaks(solution, k, n, ladder.scheme), n)
+        solution = solve_on(next_breaks(*_throttles(solution), k, n, ladder.scheme), n)
         done += 1
     return solution.replace(stats=dict(solution.stats, mesh_passes=done))
 
@@ -501,22 +501,26 @@ def indirect_fuel_optimal(problem: FuelOptimalTransfer, breaks, nu0=None, points
     return _indirect_compiled(problem, b, nu0, nodes, weights, options)
 
 
+def _throttles(sol: Solution):
+    """(breaks as fractions, segment weights, node throttles, burn threshold) of an
+    unbatched solution: what `burn_runs` and `next_breaks` read."""
+    return (0.5 * (np.asarray(sol.grid.breaks) + 1.0), sol.grid.segment.weights,
+            sol.stats["node_throttle"], sol.stats.get("burn_threshold", BURNING))
+
+
 def _burn_runs(sol: Solution):
     """[(start, end)] of the burns as fractions of [s0, s_f] (unbatched solution):
     `burn_runs` of its mesh and throttles."""
-    return burn_runs(0.5 * (np.asarray(sol.grid.breaks) + 1.0), sol.grid.segment.weights,
-                     sol.stats["node_throttle"], _threshold(sol))
+    return burn_runs(*_throttles(sol))
 
 
-def _threshold(sol: Solution):
-    return sol.stats.get("burn_threshold", BURNING)
-
-
-def next_breaks(sol: Solution, k: int, n: int, scheme: str) -> np.ndarray:
-    """`switch_breaks` for the next mesh (k segments of n points of `scheme`) from an
-    unbatched solution's burns."""
-    return switch_breaks(k, _burn_runs(sol), scheme, n,
-                         sharp_switches(sol.stats["node_throttle"], _threshold(sol)))
+def next_breaks(breaks, weights, throttle, threshold, k: int, n: int,
+                scheme: str) -> np.ndarray:
+    """`switch_breaks` for the next mesh (k segments of n points of `scheme`) from a mesh's
+    breaks (fractions), its segment's weights and the throttles at its points (host, as
+    `burn_runs` takes them)."""
+    return switch_breaks(k, burn_runs(breaks, weights, throttle, threshold), scheme, n,
+                         sharp_switches(throttle, threshold))
 
 
 def burn_runs(breaks, weights, throttle, threshold=BURNING):
@@ -675,7 +679,7 @@ def refine_fuel_optimal(problems: FuelOptimalTransfer, segments: int = 24, point
             break
         new = []
         for i in range(size[0]):
-            new.append(next_breaks(_member(sol, i), segments, points, scheme))
+            new.append(next_breaks(*_throttles(_member(sol, i)), segments, points, scheme))
         breaks = np.stack(new)
     stats = dict(sol.stats, passes=np.full(size[0], len(fuels)),
                  fuel_by_pass=np.stack(fuels, axis=1), fuel_change=change)
