@@ -13,15 +13,19 @@ tracing, lowering and compiling, from an empty cache and from a warm one.
    fresh process, cold then warm, and the longest gap between two lines it printed (the
    progress it shows). --source DIR runs them from another checkout (the commit before the
    change, for the before/after table).
-3. The CasADi side by side (--casadi): the first Newton-KKT transfer (mei2010 on the
+3. --plain-newton: the first Newton-KKT transfer (mei2010, lgl(65), on the two-body and J2
+   models) timed by its wall time alone (first call, then a second call), in a fresh process
+   from the --source checkout with an empty cache: the form that also runs on checkouts from
+   before `jaxlpm.compilation` (its trace and compile times are not reported).
+4. The CasADi side by side (--casadi): the first Newton-KKT transfer (mei2010 on the
    two-body model, lgl(65), 585 unknowns) compiled and solved cold by jaxlpm in a fresh
    process, against CasADi building the same NLP (bench_newton.build_ipopt: SX, IPOPT with
    exact Hessian) and solving it once from the same start, also in a fresh process.
 Imports are timed apart from the first call.
 
 Run:  PYTHONPATH=. python experiments/benchmarks/bench_compile.py [--entries all]
-      [--profiles fast,optimized] [--reproduce mei2010] [--source DIR] [--casadi]
-      [--out results/bench_compile.json]
+      [--profiles fast,optimized] [--reproduce mei2010] [--source DIR] [--plain-newton]
+      [--casadi] [--out results/bench_compile.json]
 """
 
 import argparse
@@ -94,6 +98,30 @@ jax.block_until_ready(call())
 second = time.perf_counter() - t
 print(json.dumps(dict(import_s=t_import, first_call_s=first, second_call_s=second,
                       events=compilation.events)))
+'''
+
+PLAIN_CHILD = r'''
+import json, sys, time
+t0 = time.perf_counter()
+import jax
+jax.config.update("jax_enable_x64", True)
+import jaxlpm as lpm
+from jaxlpm.cases import mei2010
+t_import = time.perf_counter() - t0
+p = mei2010.problem().replace(model=sys.argv[1])
+
+
+def call():
+    return lpm.solve(p, lpm.lgl(65), method="newton", throw=False).cost
+
+
+t = time.perf_counter()
+jax.block_until_ready(call())
+first = time.perf_counter() - t
+t = time.perf_counter()
+jax.block_until_ready(call())
+print(json.dumps(dict(import_s=t_import, first_call_s=first,
+                      second_call_s=time.perf_counter() - t)))
 '''
 
 CASADI_CHILD = r'''
@@ -214,6 +242,20 @@ def _failed(run):
     return "" if run["returncode"] == 0 else f" FAILED (exit {run['returncode']})"
 
 
+def plain_newton(source):
+    rows = []
+    for model in ("two-body", "j2"):
+        with tempfile.TemporaryDirectory() as cache:
+            run = _child(PLAIN_CHILD, [model], _env(cache, source=source), cwd=source)
+        rows.append(dict(model=model, source=str(source), **run))
+        if run.get("error"):
+            print(f"newton {model:<9} error: {run['error'][-300:]}", flush=True)
+        else:
+            print(f"newton {model:<9} first call {run['first_call_s']:6.2f} s, second "
+                  f"{run['second_call_s']:.4f} s (import {run['import_s']:.2f} s)", flush=True)
+    return rows
+
+
 def casadi_side_by_side():
     with tempfile.TemporaryDirectory() as cache:
         ours = _child(CHILD, ["newton-two-body", "cold"], _env(cache))
@@ -236,6 +278,8 @@ def main(argv=None):
     ap.add_argument("--profiles", default="fast")
     ap.add_argument("--reproduce", default="", help="comma-separated cases")
     ap.add_argument("--source", default=str(ROOT), help="checkout the reproductions run from")
+    ap.add_argument("--plain-newton", action="store_true",
+                    help="the first Newton-KKT transfer's wall time from --source")
     ap.add_argument("--casadi", action="store_true")
     ap.add_argument("--out", default="results/bench_compile.json")
     args = ap.parse_args(argv)
@@ -251,6 +295,8 @@ def main(argv=None):
         res["entry_points"] = entry_points(entries, args.profiles.split(","))
     if args.reproduce:
         res["reproduce"] = reproduce(args.reproduce.split(","), Path(args.source).resolve())
+    if args.plain_newton:
+        res["plain_newton"] = plain_newton(Path(args.source).resolve())
     if args.casadi:
         res["casadi"] = casadi_side_by_side()
     out = Path(args.out)
