@@ -27,6 +27,20 @@ linear model's warm start instead, the eps = 1 problem ended INFEASIBLE on the J
 `jaxlpm.cases.approach` (the penalty at its cap with the abort-safety drift still inside the
 sphere), though the energy-optimal solution is feasible there.
 
+The penalty: each step starts from the last one's multipliers and from its penalty rho capped
+at `FuelALOptions.rho_carry` (100, ten times the augmented Lagrangian's first rho). The
+augmented Lagrangian raises rho while the path violation falls too slowly, and never lowers
+it; carried whole, rho reached its cap 1e6 over the first steps and stayed there. At the last
+eps the inner Newton-KKT then stalled at every outer iteration while each multiplier update
+rho G moved the multipliers by as much as they were (a violation of 2.6e-7 times 1e6), and
+the step ended MAX_ITERATIONS after 40 outer iterations. Over the 6 keep-out flybys of
+experiments/fuel_refine_dispersion.py --constrained the default solve ended 2 SUCCESS, 1
+INACCURATE, 3 MAX_ITERATIONS so, and ends 3 SUCCESS, 2 INACCURATE, 1 MAX_ITERATIONS (on its
+last mesh) with the cap at 100. With the cap at rho0 = 10 none ended MAX_ITERATIONS, but the
+approach case (`jaxlpm.cases.approach`) left its path at eps = 0.3 for a local optimum 9 %
+dearer (1.128 m/s of delta-v against 1.032); at 100 and 1000 it keeps it
+(docs/fuel-optimal.md, "Limits").
+
 Every Newton-KKT system is solved as the energy-optimal transfer's are
 (`jaxlpm.solvers.transfer.auto_linear_algebra`: the condensed step with every thrust axis, the
 path terms' Hessian being block diagonal over the points like the dynamics', else the dense
@@ -79,6 +93,8 @@ class FuelALOptions:
                tol_feasibility is multiplied by the mesh's segments, as in
                `energy_optimal.rung_options`; tol_optimality 1e-8: the smoothing's curvature
                1/delta at the coast points puts the stationarity's round-off floor near 1e-9)
+    rho_carry  the largest penalty rho that one eps step hands the next (its multipliers are
+               handed on whole; module docstring, "The penalty")
     """
 
     eps: tuple = (1.0, 0.3, 0.1, 0.03, 0.01, 3e-3)
@@ -98,12 +114,15 @@ class FuelALOptions:
     al: ALOptions = field(default_factory=lambda: ALOptions(
         max_outer=40, tol_path=1e-6, rho_max=1e6,
         inner=NewtonOptions(max_iterations=80, stall_iterations=0, tol_optimality=1e-8)))
+    rho_carry: float = 100.0
 
     def __post_init__(self):
         eps = tuple(float(e) for e in self.eps)
         if not eps or eps[0] != 1.0 or any(not 0.0 < b < a for a, b in zip(eps, eps[1:])):
             raise ValueError(f"eps must start at 1 and decrease, staying positive, got "
                              f"{self.eps!r}")
+        if not self.rho_carry > 0.0:
+            raise ValueError(f"rho_carry must be positive, got {self.rho_carry!r}")
         if not 0.0 < self.smoothing < 1.0:
             raise ValueError(f"smoothing must be in (0, 1) (a fraction of u_max), got "
                              f"{self.smoothing!r}")
@@ -228,8 +247,10 @@ def _continuation(ocp, grid, z0, multipliers0, options: FuelALOptions, al: ALOpt
         out = (res.status, delta_v(res.z, ocp, grid, unit), res.outer_iterations,
                res.inner_iterations)
         pm = res.path_multipliers
-        # after the energy-optimal start, the multipliers of the fuel problem (f = c)
-        pen = PathPenalty(f * pm.inequality, f * pm.equality, f * pm.bounds, f * pm.rho)
+        # after the energy-optimal start, the multipliers of the fuel problem (f = c); the
+        # penalty at most rho_carry (module docstring, "The penalty")
+        pen = PathPenalty(f * pm.inequality, f * pm.equality, f * pm.bounds,
+                          jnp.minimum(f * pm.rho, options.rho_carry))
         return (res.z, f * res.multipliers, pen), (res, out)
 
     start = (z0, multipliers0, start_penalty(ocp, grid, al.rho0, z0.dtype))
