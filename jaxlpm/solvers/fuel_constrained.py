@@ -36,10 +36,10 @@ rho G moved the multipliers by as much as they were (a violation of 2.6e-7 times
 the step ended MAX_ITERATIONS after 40 outer iterations. Over the 6 keep-out flybys of
 experiments/fuel_refine_dispersion.py --constrained the default solve (its schedule then
 ending at 3e-3) ended 2 SUCCESS, 1 INACCURATE, 3 MAX_ITERATIONS so, and 3 SUCCESS, 2
-INACCURATE, 1 MAX_ITERATIONS (on its last mesh) with the cap at 100. With the cap at rho0 = 10 none ended MAX_ITERATIONS, but the
-approach case (`jaxlpm.cases.approach`) left its path at eps = 0.3 for a local optimum 9 %
-dearer (1.128 m/s of delta-v against 1.032); at 100 and 1000 it keeps it
-(docs/fuel-optimal.md, "Limits").
+INACCURATE, 1 MAX_ITERATIONS (on its last mesh) with the cap at 100. With the cap at rho0 =
+10 none ended MAX_ITERATIONS, but the approach case (`jaxlpm.cases.approach`) left its path
+at eps = 0.3 for a local optimum 9 % dearer (1.128 m/s of delta-v against 1.032); at 100 and
+1000 it keeps it (docs/fuel-optimal.md, "Limits").
 
 The last steps: the default schedule ends at eps = 1e-3, one step past 3e-3, and that step is
 optional (`FuelALOptions.optional` = 1): where it fails after every step before it
