@@ -35,7 +35,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxlpm as lpm  # noqa: E402
-from jaxlpm.batch.refine import refine_batch  # noqa: E402
+from jaxlpm.batch.refine import fuel_ladder, refine_batch  # noqa: E402
 from jaxlpm.solvers import fuel_optimal  # noqa: E402
 
 A = 7000e3
@@ -101,10 +101,7 @@ def batch(make, rng, ladder, n):
     """The members refined together by `refine_batch`, twice (module docstring)."""
     members = [make(rng) for _ in range(n)]
     problems = jax.tree_util.tree_map(lambda *x: jnp.stack(x), *members)
-    # the single solve's meshes as rungs: the first uniform, then the aligned passes
-    rungs = ladder.rungs[:1] + tuple(r for r in ladder.rungs
-                                     for _ in range(fuel_optimal.ALIGN_PASSES))
-    ladder = lpm.MeshLadder(rungs, ladder.scheme)
+    ladder = fuel_ladder(ladder)          # the single solve's meshes, one rung each
     for label in ("first pass (compiles)", "second pass (steady state)"):
         t = time.perf_counter()
         out = refine_batch(problems, ladder=ladder)

@@ -115,7 +115,7 @@ class EnergyPlan:
         return dict(breaks=breaks, X=X, U=U, error=refinement_error(solution.stats, tolerance))
 
 
-def _fuel_ladder(ladder, passes=fuel_optimal.ALIGN_PASSES):
+def fuel_ladder(ladder, passes=fuel_optimal.ALIGN_PASSES):
     """The fuel family's single refinement on `ladder` as one rung a mesh: its first rung
     uniform, then `passes` aligned meshes of each rung's shape."""
     return MeshLadder(ladder.rungs[:1] + tuple(r for r in ladder.rungs for _ in range(passes)),
@@ -129,7 +129,7 @@ class FuelPlan:
     uniform, each next one with a break at every switching time of the member's previous
     solution (`aligned_breaks`)."""
 
-    ladder: MeshLadder = _fuel_ladder(fuel_optimal.LADDER)
+    ladder: MeshLadder = fuel_ladder(fuel_optimal.LADDER)
     options: HomotopyOptions | FuelALOptions = HomotopyOptions()
     warm_start = False
 
@@ -240,7 +240,7 @@ def refinement_plan(problems, ladder=None, options=None):
         if options is None:
             options = FuelALOptions() if problems.constraints else HomotopyOptions()
         if ladder is None:
-            ladder = (_fuel_ladder(fuel_optimal.CONSTRAINED_LADDER) if problems.constraints
+            ladder = (fuel_ladder(fuel_optimal.CONSTRAINED_LADDER) if problems.constraints
                       else FuelPlan.ladder)
         fuel_optimal.check_ladder(ladder)
         return FuelPlan(ladder, options)

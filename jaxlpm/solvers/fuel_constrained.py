@@ -322,8 +322,9 @@ def fuel_al_continuation(problem, mesh: SegmentedMesh, rows, start,
 
 def fuel_al_solution(problem, mesh: SegmentedMesh, valid, rows, continued,
                      options: FuelALOptions) -> Solution:
-    """The solve's last stage: the KKT point at the last eps (differentiable), its stats
-    and the `Solution`."""
+    """The solve's last stage: the KKT point of the returned step (differentiable, at its
+    eps: the last, or the last converged where an optional step failed), its stats and the
+    `Solution`."""
     first, res, eps, (statuses, dvs, outer, inner) = continued
     grid = tau_mesh(mesh)
     ocp, energy_ocp, chief, ok, energy = constrained_ocp(problem, grid, *rows)
