@@ -91,7 +91,7 @@ def main():
     ap.add_argument("--refine", action="store_true", help="the default solve (no grid)")
     ap.add_argument("--tol-path", type=float, default=None)
     ap.add_argument("--inner", type=int, default=None)
-    ap.add_argument("--scheme", default="LGR", choices=("LGR", "LG"),
+    ap.add_argument("--scheme", default="LGR", choices=("LGR", "LG", "LGL"),
                     help="the segments of --refine's ladder (the constrained ladder's shapes)")
     args = ap.parse_args()
     options = lpm.FuelALOptions()

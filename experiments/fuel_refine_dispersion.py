@@ -11,13 +11,14 @@ Unconstrained members: e in [0, 0.5], from rest at the chief to rest at a point 
 [0, 0.15] and the duration in [0.4, 0.6] periods (seed 0).
 
 With --at-switches every break stays at its switch (no `switch_margins`: the refinement
-until 2026-12-07), for a side-by-side comparison; --scheme LGR (or LG) refines on the
-family's ladder of those segments instead of its own (LG unconstrained, LGR constrained).
+until 2026-12-07), for a side-by-side comparison; --scheme LGR (LG, LGL) refines on the
+family's ladder of those segments instead of its own (LG unconstrained, LGR constrained; on
+LGL segments by method "augmented-lagrangian", the states kept).
 With --batch the members are refined together by `jaxlpm.batch.refine.refine_batch` (one
 compiled function per rung): the count by status and by final rung, the first pass's time
 (it compiles) and a second pass's (steady state); no flights.
 
-    python experiments/fuel_refine_dispersion.py --n 60 [--at-switches] [--scheme LGR] [--batch]
+    python experiments/fuel_refine_dispersion.py --n 60 [--at-switches] [--scheme LGR|LGL] [--batch]
     python experiments/fuel_refine_dispersion.py --constrained --n 6 [--at-switches]
 """
 
@@ -65,7 +66,7 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--constrained", action="store_true")
     ap.add_argument("--at-switches", action="store_true", help="breaks at the switches")
-    ap.add_argument("--scheme", default=None, choices=("LGR", "LG"),
+    ap.add_argument("--scheme", default=None, choices=("LGR", "LG", "LGL"),
                     help="the segments of the family's ladder (default: its own)")
     ap.add_argument("--batch", action="store_true", help="refine_batch over the members")
     args = ap.parse_args()

@@ -1,6 +1,8 @@
 """LG and LGL meshes in the fuel-optimal and minimum-time families against LGR (issue 19):
 the refined solutions' status, cost, passes, error estimate and flown plan error, and the
-minimum times against the shooting solution (`min_time_shooting`, exact flow).
+minimum times against the shooting solution (`min_time_shooting`, exact flow). The fuel
+ladders of LGL segments are solved by the augmented Lagrangian (the homotopy's condensed
+transcription takes LGR and LG segments).
 
     python experiments/lg_meshes.py
 
@@ -46,14 +48,18 @@ def main():
                                    jnp.asarray(float(CIRCULAR.period)), jnp.asarray(0.3),
                                    jnp.asarray(50.0), jnp.asarray(1000.0))
     print("fuel-optimal, HCW, 4 km along-track in one period (m/s of delta-v):")
-    for scheme in ("LGR", "LG"):
+    for scheme in ("LGR", "LG", "LGL"):
         sol, s = timed(lambda: lpm.solve(fuel, lpm.MeshLadder(((4, 8), (24, 8)), scheme),
                                          throw=False))
         row(f"  {scheme} ladder 4 x 8, 24 x 8", sol, float(sol.cost), s)
+    mesh = lpm.segmented_lgr(lpm.uniform_breaks(0.0, 1.0, 24), 8)
+    for method in ("homotopy", "augmented-lagrangian"):
+        sol, s = timed(lambda: lpm.solve(fuel, mesh, method=method, throw=False))
+        row(f"  {method} on 24 x 8 LGR points", sol, float(sol.cost), s)
     eccentric = fuel.replace(orbit=ECCENTRIC, duration=jnp.asarray(float(ECCENTRIC.period)),
                              model="two-body")
     print("fuel-optimal, two-body, e = 0.2, one period:")
-    for scheme in ("LGR", "LG"):
+    for scheme in ("LGR", "LG", "LGL"):
         sol, s = timed(lambda: lpm.solve(eccentric, lpm.MeshLadder(((24, 8), (48, 8)), scheme),
                                          throw=False))
         row(f"  {scheme} ladder 24 x 8, 48 x 8", sol, float(sol.cost), s)

@@ -12,7 +12,7 @@ A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTr
 `FiniteBurnIntercept`), optional safety constraints on an energy-optimal transfer
 (`KeepOutEllipsoid`, `ApproachCone`, `SpeedLimit`, `ThrustLimit`, `PassiveSafety`), a grid
 (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`, `lg_mesh(k, n)`, `lgl_mesh(k, n)`:
-k segments; `segmented_lgr`, `segmented_lg`), `solve(problem, grid)` -> `Solution` (without a
+k segments; `segmented_lgr`, `segmented_lg`, `segmented_lgl`), `solve(problem, grid)` -> `Solution` (without a
 grid: adaptive mesh refinement to the `Tolerance`; a solution that converged but misses it is
 INACCURATE), `verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `design` (mission parameters
 optimised under uncertainty by optax), `io` (save/load, CSV, CCSDS OEM), `lambert`, `Status`,
@@ -28,7 +28,8 @@ from . import constants  # noqa: E402
 from .collocation import Grid, lg, lgl, lgr, make_grid  # noqa: E402
 from .collocation.segments import (LGLMesh, LGMesh, LGRMesh, Mesh, SegmentedMesh,  # noqa: E402
                                    aligned_breaks, lg_mesh, lgl_mesh, lgr_mesh, make_mesh,
-                                   segmented_lg, segmented_lgr, segmented_mesh, uniform_breaks)
+                                   segmented_lg, segmented_lgl, segmented_lgr, segmented_mesh,
+                                   uniform_breaks)
 from .nlp import ALOptions, HomotopyOptions, NewtonOptions, OptimalControlProblem  # noqa: E402
 from .orbits import KeplerOrbit  # noqa: E402
 from .orbits.lambert import LambertSolution, lambert  # noqa: E402
@@ -65,6 +66,6 @@ __all__ = [
     "care", "compilation", "constants", "describe", "design", "hcw_lqr",
     "indirect_fuel_optimal", "io", "lambert", "lg",
     "lgl", "lgr", "make_grid", "min_time_shooting", "nlp", "plot", "primer", "refine_fuel_optimal",
-    "segmented_lg", "segmented_lgr", "segmented_mesh",
+    "segmented_lg", "segmented_lgl", "segmented_lgr", "segmented_mesh",
     "solve", "switching_function", "switching_times", "uniform_breaks", "verify",
 ]

@@ -139,8 +139,6 @@ def test_bad_input():
         lpm.solve(prob.replace(constraints=(lpm.ThrustLimit(1e-3),)), MESH)
     with pytest.raises(ValueError, match="augmented-lagrangian"):
         lpm.solve(prob, MESH, method="homotopy")
-    with pytest.raises(ValueError, match="has none"):
-        lpm.solve(prob.replace(constraints=()), MESH, method="augmented-lagrangian")
     with pytest.raises(ValueError, match="eps"):
         lpm.solve(prob, MESH, options=lpm.FuelALOptions(eps=(0.5, 0.1)))
     with pytest.raises(ValueError, match="rho_carry"):

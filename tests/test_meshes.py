@@ -125,4 +125,5 @@ def test_ladders_are_checked():
     with pytest.raises(ValueError, match="LGL"):       # states eliminated segment by segment
         fuel = lpm.FuelOptimalTransfer(ORBIT, jnp.zeros(6), X0, 3000.0, 0.3, 50.0, 1000.0)
         refine_batch(jax.tree_util.tree_map(lambda x: jnp.stack([x]), fuel),
-                     ladder=lpm.MeshLadder(RUNGS, scheme="LGL"))
+                     ladder=lpm.MeshLadder(RUNGS, scheme="LGL"),
+                     options=lpm.HomotopyOptions())

@@ -1,4 +1,4 @@
-"""Multi-interval (segmented) meshes: the segmented LGR or LG mesh of the fuel-optimal and
+"""Multi-interval (segmented) meshes: the segmented LGR, LG or LGL mesh of the fuel-optimal and
 minimum-time families (`SegmentedMesh`, breaks as fractions of [s0, sf]) and the meshes of the
 general transcription on tau in [-1, 1] (`LGRMesh`, `LGMesh`, `LGLMesh`: `Mesh`) (Garg et
 al. 2010, "A unified framework for the numerical solution of optimal control problems using
@@ -28,9 +28,12 @@ from .grid import Grid, lg, lgl, lgr
 @jax.tree_util.register_dataclass
 @dataclasses.dataclass(frozen=True)
 class SegmentedMesh:
-    """K segments of one LGR or LG grid. breaks (K + 1,) increasing; grid: `lgr(n)` or `lg(n)`
-    (the `LGRMesh` and `LGMesh` layouts: LGR segments share their break rows, an LG segment's
-    end is its start plus the Gauss quadrature of the dynamics)."""
+    """K segments of one LGR, LG or LGL grid. breaks (K + 1,) increasing; grid: `lgr(n)`,
+    `lg(n)` or `lgl(n)` (the `LGRMesh`, `LGMesh` and `LGLMesh` layouts: LGR segments share
+    their break rows, an LG segment's end is its start plus the Gauss quadrature of the
+    dynamics, LGL segments each hold their break rows, tied by linkage conditions). The
+    condensed transcription (`jaxlpm.problems.fuel_optimal.condensed_mesh`) takes LGR and LG
+    segments only (`CONDENSED_SCHEMES`)."""
 
     breaks: jax.Array
     grid: Grid
@@ -64,21 +67,26 @@ class SegmentedMesh:
     def state_points(self):
         """s of every segment's state rows, its start and end breaks included: LGR its n
         points (the first is its start) and its end, (K, n + 1); LG its start, its n Gauss
-        points and its end, (K, n + 2)."""
+        points and its end, (K, n + 2); LGL its n points (both ends among them), (K, n)."""
+        if self.grid.scheme == "LGL":
+            return self.points
         first = [self.breaks[:-1, None]] if self.grid.scheme == "LG" else []
         return jnp.concatenate([*first, self.points, self.breaks[1:, None]], axis=1)
 
 
-SEGMENTED_SCHEMES = ("LGR", "LG")
+SEGMENTED_SCHEMES = ("LGR", "LG", "LGL")
+CONDENSED_SCHEMES = ("LGR", "LG")
+"""The schemes whose segments the condensed transcription eliminates the states of, segment
+by segment from its start: an LGL segment collocates both its ends, so its n defects
+over-determine its n - 1 state rows after the start and leave conditions on the controls."""
 
 
 def segmented_mesh(breaks, n: int, scheme: str = "LGR") -> SegmentedMesh:
     """Mesh with the given breaks (K + 1 increasing values) and n points per segment of
-    `scheme`: "LGR" (Radau, the default) or "LG" (Gauss)."""
+    `scheme`: "LGR" (Radau, the default), "LG" (Gauss) or "LGL" (Lobatto)."""
     if scheme not in SEGMENTED_SCHEMES:
-        raise ValueError(f"a SegmentedMesh is of scheme {' or '.join(SEGMENTED_SCHEMES)} (an "
-                         f"LGL segment collocates both its ends, so its states are not "
-                         f"eliminated segment by segment), got {scheme!r}")
+        raise ValueError(f"a SegmentedMesh is of scheme {', '.join(SEGMENTED_SCHEMES)}, got "
+                         f"{scheme!r}")
     b = np.asarray(breaks, dtype=np.float64)
     if b.ndim != 1 or b.size < 2:
         raise ValueError(f"breaks must be a 1-D array of at least 2 values, got shape {b.shape}")
@@ -95,6 +103,12 @@ def segmented_lgr(breaks, n: int) -> SegmentedMesh:
 def segmented_lg(breaks, n: int) -> SegmentedMesh:
     """Mesh with the given breaks (K + 1 increasing values) and n LG points per segment."""
     return segmented_mesh(breaks, n, "LG")
+
+
+def segmented_lgl(breaks, n: int) -> SegmentedMesh:
+    """Mesh with the given breaks (K + 1 increasing values) and n LGL points per segment (the
+    fuel-optimal family's augmented Lagrangian: `jaxlpm.solvers.fuel_constrained`)."""
+    return segmented_mesh(breaks, n, "LGL")
 
 
 def uniform_breaks(s0: float, sf: float, k: int) -> np.ndarray:
@@ -391,14 +405,15 @@ def lgr_mesh(k: int, n: int, breaks=None) -> LGRMesh:
 
 
 def as_segmented(mesh):
-    """A `SegmentedMesh` as it is; an `LGRMesh` or `LGMesh` (breaks in tau, e.g. a solution's
-    grid) as the `SegmentedMesh` of the same segments with breaks as fractions (tau + 1) / 2."""
-    if isinstance(mesh, (LGRMesh, LGMesh)):
+    """A `SegmentedMesh` as it is; an `LGRMesh`, `LGMesh` or `LGLMesh` (breaks in tau, e.g. a
+    solution's grid) as the `SegmentedMesh` of the same segments with breaks as fractions
+    (tau + 1) / 2."""
+    if isinstance(mesh, Mesh):
         return SegmentedMesh(breaks=0.5 * (mesh.breaks + 1.0), grid=mesh.segment)
     return mesh
 
 
 def tau_mesh(mesh: SegmentedMesh) -> Mesh:
-    """The `LGRMesh` or `LGMesh` of a `SegmentedMesh` (breaks as fractions), in tau in
-    [-1, 1]: the inverse of `as_segmented`."""
+    """The `LGRMesh`, `LGMesh` or `LGLMesh` of a `SegmentedMesh` (breaks as fractions), in
+    tau in [-1, 1]: the inverse of `as_segmented`."""
     return MESHES[mesh.grid.scheme][0](breaks=2.0 * mesh.breaks - 1.0, segment=mesh.grid)

@@ -9,7 +9,9 @@ compiled solver; every family returns a `Solution`.
 |                         | "newton" (any model and grid)           |                       |
 | `MinimumTimeTransfer`   | "augmented-lagrangian" (HCW),           | lg(32) (HCW),         |
 |                         | "condensed" (any e and model)           | 16 LGR segments of 8  |
-| `FuelOptimalTransfer`   | "homotopy" (any e and model)            | 24 LGR segments of 8  |
+| `FuelOptimalTransfer`   | "homotopy" (any e and model; LGR, LG),  | 24 LGR segments of 8  |
+|                         | "augmented-lagrangian" (safety          |                       |
+|                         | constraints; LGL segments; on request)  |                       |
 | `LQRTransfer`           | "riccati" (exact Riccati sweep)         | 512 steps (an int)    |
 | `ImpulsiveIntercept`    | "shooting" (Lambert + J2 Newton)        | none (grid=None)      |
 | `FiniteBurnIntercept`   | "augmented-lagrangian" (LGL burn arc)   | lgl(5), raised to 9,  |
@@ -36,14 +38,17 @@ def solve(problem, grid=None, *, method=None, options=None, tolerance=None,
 
     grid: a `Grid` (lgl(n), lg(n), lgr(n): n points), a `Mesh` (lgr_mesh(k, n), lg_mesh(k, n),
     lgl_mesh(k, n)), or, for fuel-optimal transfers and minimum-time method "condensed", a
-    `SegmentedMesh` (segmented_lgr(breaks, n), segmented_lg(breaks, n); breaks as fractions of
-    the transfer's anomaly span); None: the family's default (concrete input: mesh refinement
+    `SegmentedMesh` (segmented_lgr(breaks, n), segmented_lg(breaks, n), segmented_lgl(breaks,
+    n); breaks as fractions of the transfer's anomaly span; LGL segments for the fuel-optimal
+    augmented Lagrangian only); None: the family's default (concrete input: mesh refinement
     on the family's ladder); for energy-optimal, fuel-optimal and minimum-time transfers a
     `MeshLadder`: refinement on that ladder (`MeshLadder(rungs, scheme="LG")`: on LG meshes;
-    the fuel-optimal family and method "condensed" on LGR or LG segments). method: None for
-    the family's default (minimum time: "condensed" on a `SegmentedMesh`). options: the
+    the fuel homotopy and method "condensed" on LGR or LG segments, a fuel-optimal LGL
+    ladder by the augmented Lagrangian). method: None for
+    the family's default (minimum time: "condensed" on a `SegmentedMesh`; fuel-optimal:
+    "augmented-lagrangian" with safety constraints or on LGL segments). options: the
     method's frozen options object (`NewtonOptions`, `ALOptions`, `HomotopyOptions`,
-    `CondensedOptions`) or None for its defaults.
+    `FuelALOptions`, `CondensedOptions`) or None for its defaults.
     tolerance: a `Tolerance` (SI: position m, velocity m/s; None: `DEFAULT_TOLERANCE`): a
     converged solution whose error estimate between the nodes exceeds it is INACCURATE.
     throw: an unbatched, concrete solve that does not end SUCCESS raises `SolveError` (its

@@ -1,11 +1,13 @@
-"""Fuel-optimal transfers with safety constraints (`FuelOptimalTransfer(..., constraints=[...])`):
-the energy-to-fuel homotopy on the general NLP engine, with the states kept so that state path
-constraints can be enforced.
+"""Fuel-optimal transfers with safety constraints (`FuelOptimalTransfer(..., constraints=[...])`),
+or on LGL segments, or where method "augmented-lagrangian" is asked: the energy-to-fuel
+homotopy on the general NLP engine, with the states kept so that state path constraints can be
+enforced and every scheme of segments collocated (LGR, LG, and LGL, whose segments collocate
+both their ends, so that the condensed transcription cannot eliminate their states).
 
 The condensed dual of `jaxlpm.solvers.fuel_optimal` eliminates the states and keeps only the six
 final-state multipliers: constraints on the states do not fit it. Here the energy-optimal
 transfer's own transcription (`transfer_ocp`: the same scaled states, independent variable and
-chief samples, on the family's segmented LGR mesh) takes the smoothed delta-v as its running
+chief samples, on the family's segmented mesh) takes the smoothed delta-v as its running
 cost (Bertrand & Epenoy 2002; Yue & Duan 2016, eq. 31)
 
     L = r(s) u_max l_eps(Gamma),   Gamma = sqrt(|u|^2 + (delta u_max)^2) / u_max,

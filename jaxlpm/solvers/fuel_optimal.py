@@ -6,7 +6,11 @@ homotopy to the bang-bang fuel optimum).
 
 `jaxlpm.solve(problem, mesh)` (`run`): one mesh (jit; vmap over problems and meshes of one
 shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy tolerance
-(`refine_transfer`; `solve(problem, MeshLadder(rungs, scheme="LG"))` on LG segments).
+(`refine_transfer`; `solve(problem, MeshLadder(rungs, scheme="LG"))` on LG segments). With
+safety constraints, on LGL segments (whose states the condensed transcription cannot
+eliminate: an LGL segment collocates both its ends) or when asked (method
+"augmented-lagrangian"), the same pipeline runs with the states kept
+(`jaxlpm.solvers.fuel_constrained`).
 `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method on the linear model,
 shooting on the costates with the smoothed switching law, continued in eps from the LGR
 costates. `refine_fuel_optimal(problems, segments, points)`: host-side passes over
@@ -50,7 +54,7 @@ import numpy as np
 from ..compilation import compiled, pipelined
 from .._validation import is_concrete, require_x64
 from ..collocation import interpolation_matrix, lg_nodes_weights
-from ..collocation.segments import (MESHES, SEGMENTED_SCHEMES, LGLMesh, SegmentedMesh,
+from ..collocation.segments import (CONDENSED_SCHEMES, MESHES, SEGMENTED_SCHEMES, SegmentedMesh,
                                    aligned_breaks, as_segmented, segmented_lgr, segmented_mesh,
                                    tau_mesh, uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
@@ -211,24 +215,35 @@ def _compiled(problem, mesh, options):
 DEFAULT_SEGMENTS, DEFAULT_POINTS = 24, 8     # Yue & Duan 2016's mesh
 
 
-def check_segmented(mesh, what: str) -> SegmentedMesh:
-    """`as_segmented(mesh)` for the condensed families (`what` their name in the message): a
-    ValueError unless it is a `SegmentedMesh` of at least `MIN_POINTS` points a segment."""
+def check_segmented(mesh, what: str, condensed: bool = True, hint: str = "") -> SegmentedMesh:
+    """`as_segmented(mesh)` for the segmented families (`what` their name in the message): a
+    ValueError unless it is a `SegmentedMesh` of at least `MIN_POINTS` points a segment, of
+    LGR or LG segments where the transcription is `condensed` (`CONDENSED_SCHEMES`; `hint`
+    ends that message)."""
     mesh = as_segmented(mesh)
     if not isinstance(mesh, SegmentedMesh):
-        why = (" (an LGL segment collocates both its ends, so its states are not eliminated "
-               "segment by segment)" if isinstance(mesh, LGLMesh) else "")
-        raise ValueError(f"the grid of {what} is a SegmentedMesh (segmented_lgr(breaks, n) or "
-                         f"segmented_lg(breaks, n), breaks as fractions of [s0, s_f]) or a "
-                         f"solution's LGRMesh or LGMesh, got {type(mesh).__name__}{why}")
+        raise ValueError(f"the grid of {what} is a SegmentedMesh (segmented_lgr(breaks, n), "
+                         f"segmented_lg(breaks, n) or segmented_lgl(breaks, n), breaks as "
+                         f"fractions of [s0, s_f]) or a solution's LGRMesh, LGMesh or LGLMesh, "
+                         f"got {type(mesh).__name__}")
+    if condensed and mesh.grid.scheme not in CONDENSED_SCHEMES:
+        raise ValueError(f"{what} takes LGR or LG segments (its condensed transcription "
+                         f"eliminates the states segment by segment from its start, and an "
+                         f"LGL segment collocates both its ends), got {mesh.grid.scheme} "
+                         f"segments{hint}")
     if mesh.grid.n < MIN_POINTS:
         raise ValueError(f"the segments of {what} need at least {MIN_POINTS} "
                          f"{mesh.grid.scheme} points, got {mesh.grid.n}")
     return mesh
 
 
+HOMOTOPY_ONLY = ("a fuel-optimal transfer by the homotopy", True,
+                 ": on LGL segments use method 'augmented-lagrangian'")   # check_segmented's
+
+
 def check_grid(mesh, method):
-    mesh = check_segmented(mesh, "a fuel-optimal transfer")
+    mesh = check_segmented(mesh, *(HOMOTOPY_ONLY if method == "homotopy"
+                                   else ("a fuel-optimal transfer", False)))
     if is_concrete(mesh.breaks):
         b = np.asarray(mesh.breaks)
         if b.ndim == 1 and not (abs(b[0]) < 1e-15 and abs(b[-1] - 1.0) < 1e-15):
@@ -238,27 +253,28 @@ def check_grid(mesh, method):
 
 
 def default_method(problem, mesh=None):
-    """The augmented Lagrangian with safety constraints (`jaxlpm.solvers.fuel_constrained`),
-    else the condensed homotopy."""
-    return "augmented-lagrangian" if problem.constraints else "homotopy"
+    """The augmented Lagrangian (`jaxlpm.solvers.fuel_constrained`) with safety constraints
+    or on LGL segments (`mesh` a mesh or a `MeshLadder`), else the condensed homotopy."""
+    segmented = as_segmented(mesh)
+    scheme = (mesh.scheme if isinstance(mesh, MeshLadder) else segmented.grid.scheme
+              if isinstance(segmented, SegmentedMesh) else None)
+    return ("augmented-lagrangian" if problem.constraints or scheme == "LGL"
+            else "homotopy")
 
 
 def run(problem, mesh, method, options) -> Solution:
-    """Solve on one segmented LGR or LG mesh whose breaks are fractions of the independent
-    variable's span [s0, s_f] (from 0 to 1; of the transfer time on a circular chief).
-    jit-compiled once per mesh shape and options; vmap-able over problems and
-    meshes. A solution's own `grid` (an `LGRMesh` or `LGMesh` in tau) is accepted too. Traced
-    bad input gives INVALID_INPUT. Method "homotopy" (`HomotopyOptions`) for transfers
-    without safety constraints, "augmented-lagrangian" (`FuelALOptions`) for those with
-    them."""
-    if method != default_method(problem):
-        raise ValueError(
-            "a fuel-optimal transfer with safety constraints is solved by method "
-            f"'augmented-lagrangian' (options FuelALOptions), got {method!r}"
-            if problem.constraints else
-            "method 'augmented-lagrangian' is for fuel-optimal transfers with safety "
-            "constraints (FuelOptimalTransfer(..., constraints=[...])); this one has none: "
-            "use 'homotopy'")
+    """Solve on one segmented mesh whose breaks are fractions of the independent variable's
+    span [s0, s_f] (from 0 to 1; of the transfer time on a circular chief). jit-compiled
+    once per mesh shape and options; vmap-able over problems and meshes. A solution's own
+    `grid` (an `LGRMesh`, `LGMesh` or `LGLMesh` in tau) is accepted too. Traced bad input
+    gives INVALID_INPUT. Method "homotopy" (`HomotopyOptions`; LGR or LG segments) for
+    transfers without safety constraints; "augmented-lagrangian" (`FuelALOptions`; LGR, LG
+    or LGL segments, the states kept) for any, the only one with safety constraints."""
+    if method == "homotopy" and problem.constraints:
+        raise ValueError("a fuel-optimal transfer with safety constraints is solved by method "
+                         f"'augmented-lagrangian' (options FuelALOptions), got {method!r}")
+    if method == "homotopy":
+        check_segmented(mesh, *HOMOTOPY_ONLY)
     # traced too: one program, not op by op
     if method == "augmented-lagrangian":
         return constrained_fuel_optimal(problem, as_segmented(mesh), options)
@@ -284,12 +300,17 @@ u_max between the points beside short or smoothed switches; docs/fuel-optimal.md
 CONSTRAINED_LADDER = _ladder((16, 24))
 
 
-def check_ladder(ladder: MeshLadder) -> None:
-    """A fuel-optimal ladder is of LGR or LG segments of at least `MIN_POINTS` points."""
-    if ladder.scheme not in SEGMENTED_SCHEMES:
-        raise ValueError(f"fuel-optimal and condensed minimum-time transfers refine on LGR or "
+def check_ladder(ladder: MeshLadder, condensed: bool = True) -> None:
+    """A fuel-optimal ladder is of segments of at least `MIN_POINTS` points, LGR or LG ones
+    for the condensed transcriptions (`condensed`: the homotopy, minimum-time method
+    "condensed")."""
+    schemes = CONDENSED_SCHEMES if condensed else SEGMENTED_SCHEMES
+    if ladder.scheme not in schemes:
+        raise ValueError(f"the homotopy and minimum-time method 'condensed' refine on LGR or "
                          f"LG segments (their states are eliminated segment by segment, and an "
-                         f"LGL segment collocates both its ends), got a {ladder.scheme} ladder")
+                         f"LGL segment collocates both its ends; a fuel-optimal transfer "
+                         f"refines on LGL segments by method 'augmented-lagrangian'), got a "
+                         f"{ladder.scheme} ladder")
     if min(n for _, n in ladder.rungs) < MIN_POINTS:
         raise ValueError(f"the ladder's segments need at least {MIN_POINTS} points, got "
                          f"{ladder.rungs}")
@@ -377,13 +398,15 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None,
     the breaks follow them; `switch_breaks`), until the error estimate meets the tolerance
     (`judge` leaves it SUCCESS) or the last mesh (then INACCURATE). A solve that fails outright (not
     converged) ends the refinement with its status. stats gain mesh_passes.
-    ladder: default `LADDER`, `CONSTRAINED_LADDER` with safety constraints."""
-    method = default_method(problem)
+    ladder: default `LADDER`, `CONSTRAINED_LADDER` with safety constraints. The method is
+    `default_method(problem, ladder)`: the augmented Lagrangian with safety constraints or
+    on an LGL ladder."""
     if ladder is None:
         ladder = CONSTRAINED_LADDER if problem.constraints else LADDER
-    check_ladder(ladder)
+    method = default_method(problem, ladder)
+    check_ladder(ladder, condensed=method == "homotopy")
     if options is None:
-        options = FuelALOptions() if problem.constraints else HomotopyOptions()
+        options = FuelALOptions() if method == "augmented-lagrangian" else HomotopyOptions()
 
     def solve_on(breaks, points):
         return judge(run(problem, segmented_mesh(breaks, points, ladder.scheme), method,
@@ -514,13 +537,25 @@ def _burn_runs(sol: Solution):
     return burn_runs(*_throttles(sol))
 
 
+MIN_RUN = 1e-3    # a burn inside the transfer shorter than this fraction of the mesh's shortest
+#                  segment is not aligned with (`next_breaks`)
+
+
 def next_breaks(breaks, weights, throttle, threshold, k: int, n: int,
                 scheme: str) -> np.ndarray:
     """`switch_breaks` for the next mesh (k segments of n points of `scheme`) from a mesh's
     breaks (fractions), its segment's weights and the throttles at its points (host, as
-    `burn_runs` takes them)."""
-    return switch_breaks(k, burn_runs(breaks, weights, throttle, threshold), scheme, n,
-                         sharp_switches(throttle, threshold))
+    `burn_runs` takes them). A burn inside the transfer shorter than `MIN_RUN` of the
+    shortest segment gets no breaks: such a run is one point that barely fires, most often
+    an LGL segment's end (its control weakly determined, both ends being collocated; on the
+    keep-out flyby a point at a break fired at 0.033 of the bound, a 3.7e-5 run), and its two
+    breaks would make a segment that short (the next mesh's solve then ended MAX_ITERATIONS
+    at every eps)."""
+    runs = burn_runs(breaks, weights, throttle, threshold)
+    shortest = MIN_RUN * float(np.min(np.diff(np.asarray(breaks, np.float64))))
+    kept = [i for i, (a, b) in enumerate(runs) if a == 0.0 or b == 1.0 or b - a >= shortest]
+    sharp = sharp_switches(throttle, threshold)
+    return switch_breaks(k, [runs[i] for i in kept], scheme, n, [sharp[i] for i in kept])
 
 
 def burn_runs(breaks, weights, throttle, threshold=BURNING):
