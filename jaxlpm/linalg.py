@@ -178,16 +178,6 @@ def cholesky_solve(a, b):
     return jax.scipy.linalg.cho_solve((jnp.linalg.cholesky(a), True), b)
 
 
-SMALL_SPD = 6     # up to this size `spd_solve` writes the Cholesky factorisation out
-
-
-def spd_solve(a, b):
-    """Solve a x = b for symmetric positive definite a: `small_spd_solve` up to `SMALL_SPD`
-    unknowns (elementwise arithmetic, cheap under vmap), `cholesky_solve` above (LAPACK, member
-    by member under vmap); x only (NaN or inf where a is not positive definite)."""
-    return small_spd_solve(a, b)[0] if a.shape[-1] <= SMALL_SPD else cholesky_solve(a, b)
-
-
 @sequential_when_batched
 def cholesky_factor(a):
     """Lower Cholesky factor L of symmetric positive definite a (L L^T = a; LAPACK), NaN where

@@ -125,9 +125,9 @@ def fuel_ladder(ladder, passes=fuel_optimal.ALIGN_PASSES):
 @dataclass(frozen=True)
 class FuelPlan:
     """Fuel-optimal transfers: the homotopy (`HomotopyOptions`) or the augmented Lagrangian
-    (`FuelALOptions`: with safety constraints, or asked) on `SegmentedMesh` rungs
-    (breaks as fractions of the transfer), the first uniform, each next one with a break at
-    every switching time of the member's previous solution (`aligned_breaks`)."""
+    (`FuelALOptions`: with safety constraints, on LGL segments) on `SegmentedMesh` rungs (breaks as fractions of the transfer), the first
+    uniform, each next one with a break at every switching time of the member's previous
+    solution (`aligned_breaks`)."""
 
     ladder: MeshLadder = fuel_ladder(fuel_optimal.LADDER)
     options: HomotopyOptions | FuelALOptions = HomotopyOptions()
@@ -230,19 +230,21 @@ def refinement_plan(problems, ladder=None, options=None):
     """The plan (`EnergyPlan`, `FuelPlan`, `MinTimePlan`, `LQRPlan`) of a batch of
     `problems`, with the family's default ladder and options where they are None. Ladders of
     LGR, LG and LGL meshes for energy-optimal transfers and HCW minimum time by the augmented
-    Lagrangian; LGR, LG and LGL segments for fuel-optimal transfers and method "condensed"
-    (ValueError otherwise: `fuel_optimal.check_ladder`)."""
+    Lagrangian; LGR and LG segments for the fuel-optimal homotopy and method "condensed",
+    LGL ones too for fuel-optimal transfers by the augmented Lagrangian (the default on an LGL
+    ladder; ValueError otherwise: `fuel_optimal.check_ladder`)."""
     if isinstance(problems, EnergyOptimalTransfer):
         if options is None:
             options = ALOptions() if problems.constraints else NewtonOptions()
         return EnergyPlan(DEFAULT_LADDER if ladder is None else ladder, options)
     if isinstance(problems, FuelOptimalTransfer):
-        if options is None:
-            options = FuelALOptions() if problems.constraints else HomotopyOptions()
         if ladder is None:
             ladder = (fuel_ladder(fuel_optimal.CONSTRAINED_LADDER) if problems.constraints
                       else FuelPlan.ladder)
-        fuel_optimal.check_ladder(ladder)
+        if options is None:
+            options = (FuelALOptions() if fuel_optimal.default_method(problems, ladder)
+                       == "augmented-lagrangian" else HomotopyOptions())
+        fuel_optimal.check_ladder(ladder, condensed=isinstance(options, HomotopyOptions))
         return FuelPlan(ladder, options)
     if isinstance(problems, MinimumTimeTransfer):
         if options is None:

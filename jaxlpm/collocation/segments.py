@@ -31,7 +31,9 @@ class SegmentedMesh:
     """K segments of one LGR, LG or LGL grid. breaks (K + 1,) increasing; grid: `lgr(n)`,
     `lg(n)` or `lgl(n)` (the `LGRMesh`, `LGMesh` and `LGLMesh` layouts: LGR segments share
     their break rows, an LG segment's end is its start plus the Gauss quadrature of the
-    dynamics, LGL segments each hold their break rows, tied by linkage conditions)."""
+    dynamics, LGL segments each hold their break rows, tied by linkage conditions). The
+    condensed transcription (`jaxlpm.problems.fuel_optimal.condensed_mesh`) takes LGR and LG
+    segments only (`CONDENSED_SCHEMES`)."""
 
     breaks: jax.Array
     grid: Grid
@@ -73,6 +75,10 @@ class SegmentedMesh:
 
 
 SEGMENTED_SCHEMES = ("LGR", "LG", "LGL")
+CONDENSED_SCHEMES = ("LGR", "LG")
+"""The schemes whose segments the condensed transcription eliminates the states of, segment
+by segment from its start: an LGL segment collocates both its ends, so its n defects
+over-determine its n - 1 state rows after the start and leave conditions on the controls."""
 
 
 def segmented_mesh(breaks, n: int, scheme: str = "LGR") -> SegmentedMesh:
@@ -100,7 +106,8 @@ def segmented_lg(breaks, n: int) -> SegmentedMesh:
 
 
 def segmented_lgl(breaks, n: int) -> SegmentedMesh:
-    """Mesh with the given breaks (K + 1 increasing values) and n LGL points per segment."""
+    """Mesh with the given breaks (K + 1 increasing values) and n LGL points per segment (the
+    fuel-optimal family's augmented Lagrangian: `jaxlpm.solvers.fuel_constrained`)."""
     return segmented_mesh(breaks, n, "LGL")
 
 

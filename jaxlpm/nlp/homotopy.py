@@ -36,7 +36,7 @@ import jax
 import jax.numpy as jnp
 
 from ..compilation import compiled
-from ..linalg import spd_solve
+from ..linalg import small_spd_solve
 from ..status import Status
 
 _RUNNING = -1
@@ -191,7 +191,7 @@ def newton_dual(nu0, E, c, d, eps, options: HomotopyOptions):
         eye = jnp.eye(J.shape[0], dtype=J.dtype)
         # Newton steps with Levenberg-Marquardt shifts (J is negative semidefinite): from the
         # Newton step (shift 1e-13 scale) towards the gradient direction r / shift
-        steps = jax.vmap(lambda m: spd_solve(m * scale * eye - J, r))(shifts)
+        steps = jax.vmap(lambda m: small_spd_solve(m * scale * eye - J, r)[0])(shifts)
         slopes = steps @ r                                 # > 0: ascent directions of g
         g0 = dual(nu, E, c, d, eps)
         trial = nu + alphas[:, None, None] * steps[None]   # (n_alpha, n_shift, n_x)

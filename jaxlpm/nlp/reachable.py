@@ -17,7 +17,7 @@ directions reach d exactly: sum_i w_i P_i v_i = F* d (the minimiser's optimality
 import jax
 import jax.numpy as jnp
 
-from ..linalg import spd_solve
+from ..linalg import small_spd_solve
 
 NEWTON_ITERATIONS = 30     # Newton on p: quadratic where no primer vanishes at a point, and
 #                            where one does (a kink of h) the value still settles to round-off
@@ -49,7 +49,7 @@ def support_minimiser(P, w, d):
     (P Z)_i^T / |v_i| (v = P_i^T p, v^ = v / |v|), an Armijo backtracking on h; from the
     Gramian's p0 = W^-1 d / (d . W^-1 d), W = sum_i w_i P_i P_i^T (the energy-optimal
     primer)."""
-    p0 = spd_solve(jnp.einsum("k,kia,kja->ij", w, P, P), d)
+    p0 = small_spd_solve(jnp.einsum("k,kia,kja->ij", w, P, P), d)[0]
     p0 = p0 / (p0 @ d)
     Z = _complement(d)
     v0 = jnp.einsum("kia,i->ka", P, p0)
@@ -65,7 +65,7 @@ def support_minimiser(P, w, d):
         g = jnp.einsum("k,kja,ka->j", w, PZ, u)
         curv = jnp.eye(3, dtype=v.dtype) - u[:, :, None] * u[:, None, :]
         H = jnp.einsum("k,kia,kab,kjb->ij", w / r, PZ, curv, PZ)
-        step = -spd_solve(H, g)
+        step = -small_spd_solve(H, g)[0]
         fy, slope = f(y), g @ step
 
         def halve(t):

@@ -12,8 +12,8 @@ models of the energy-optimal transfers.
 models (`jaxlpm.problems.energy_optimal`): "linear" (Tschauner-Hempel about a Keplerian chief;
 HCW at e = 0), "two-body", "j2". The transcription is the energy-optimal transfer's
 (`transfer_ocp`) in the same independent variable s (the chief's true anomaly, or the J2
-chief's regularised anomaly), on a segmented LGR, LG or LGL mesh (Garg et al. 2010) whose
-breaks are fractions of [s0, s_f] (of the duration on a circular chief).
+chief's regularised anomaly), on a segmented LGR or LG mesh (Garg et al. 2010) whose breaks
+are fractions of [s0, s_f] (of the duration on a circular chief).
 
 eps = 1 is the energy-like problem (J_1 = int |u|^2 / u_max dt, with the thrust bound),
 eps = 0 the fuel (Delta-v) problem, J_0 = int |u| dt. For 0 < eps <= 1 the integrand
@@ -28,10 +28,8 @@ eq. 2 is its first-order form F dt / (Isp g0), larger by a relative Delta v / (2
 
 Condensed transcription (`condensed_mesh`): the dynamics linearised at the collocation points,
 x' = A_i x + B_i u + c_i (exact for the linear model; about a reference trajectory for the
-nonlinear ones, `linearised_nlp`), collocated on each LGR, LG or LGL segment and the states
-eliminated, so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i + o
-(on LGL segments, each of which leaves n_x conditions on its controls, those conditions
-join the final state as rows of the same affine map).
+nonlinear ones, `linearised_nlp`), collocated on each LGR or LG segment and the states
+eliminated, so the final state is affine in the controls: x_K = Phi x0 + sum_i E_i u_i + o.
 The solver (`jaxlpm.solvers.fuel_optimal`) relinearises the nonlinear models about each
 solution until the state rows stop moving: the fixed point satisfies the nonlinear collocation
 equations, and its KKT conditions are the nonlinear problem's (the linearisation has the same
@@ -44,7 +42,7 @@ import jax
 import jax.numpy as jnp
 
 from .._validation import Checked, Rule, array_module, coerce_sequences
-from ..collocation.segments import MESHES, Mesh, SegmentedMesh, tau_mesh
+from ..collocation.segments import Mesh, SegmentedMesh, tau_mesh
 from ..constants import G0, J2_EARTH, R_EARTH
 from ..dynamics.chief import anomaly_rate
 from ..linalg import dense_solve
@@ -159,40 +157,23 @@ def rocket_fuel(dv, problem: FuelOptimalTransfer):
 
 
 def _segment_maps(A, B, c, grid, h):
-    """One LGR, LG or LGL segment of half length h with x' = A_i x + B_i u + c_i at its n
-    points (A (n, n_x, n_x), B (n, n_x, n_u), c (n, n_x)): the state rows X_r after its start
-    x, X_r = P x + G U + g, M, the matrix of its equations in X_r (for the discrete adjoint),
-    and the conditions Q x + H U + q = 0 that the segment leaves on its controls (LGL; none
-    on LGR and LG: Q (0, n_x) and H, q alike).
+    """One LGR or LG segment of half length h with x' = A_i x + B_i u + c_i at its n points
+    (A (n, n_x, n_x), B (n, n_x, n_u), c (n, n_x)): the state rows X_r after its start x,
+    X_r = P x + G U + g, and M, the matrix of its equations in X_r (for the discrete adjoint).
 
     LGR (Garg et al. 2010's Radau method): X_r is the n - 1 points after the first and the
     end, from the n defects D X = h (A_i X_i + B_i U_i + c_i) (point 0 is the start).
     LG (Garg et al. 2010's Gauss method; Benson et al. 2006): X_r is the n Gauss points, from
     their n defects, and the end x_e = x + h sum_i w_i (A_i X_i + B_i U_i + c_i) (the
-    quadrature row, last).
-    LGL (Fahroo & Ross 2001 on each segment): X_r is the n - 1 points after the first (the
-    last is the end), from the defects of points 1 .. n - 1 (D[1:, 1:] is invertible: a
-    polynomial of degree n - 1 that vanishes at tau_0 and whose derivative vanishes at n - 1
-    points is zero); the defect of point 0, D[0] X - h (A_0 x + B_0 U_0 + c_0) = 0, is then a
-    condition on the controls: an LGL segment collocates both its ends, so its n defects
-    over-determine its n - 1 rows."""
+    quadrature row, last)."""
     n, n_x, n_u = grid.n, A.shape[-1], B.shape[-1]
-    lgl = grid.scheme == "LGL"
-    D = grid.D[1:] if lgl else grid.D           # the eliminating rows (LGL: points 1 ..)
-    d0, Dr = D[:, 0], D[:, 1:]
+    d0, Dr = grid.D[:, 0], grid.D[:, 1:]
     eye = jnp.eye(n_x)
     blocks = lambda m: m.transpose(0, 2, 1, 3).reshape(m.shape[0] * n_x, -1)  # noqa: E731
     rhs_u = h * jnp.einsum("ij,iab->iajb", jnp.eye(n), B).reshape(n * n_x, n * n_u)
     rhs_c = h * c.reshape(n * n_x, 1)
-    if lgl:
-        rhs_u, rhs_c = rhs_u[n_x:], rhs_c[n_x:]
     rhs_x = -jnp.kron(d0[:, None], eye)
-    if lgl:
-        # point i >= 1 is state row i - 1 of X_r: the block diagonal of A_1 .. A_{n-1}
-        diagonal = jnp.zeros((n - 1, n - 1, n_x, n_x)).at[
-            jnp.arange(n - 1), jnp.arange(n - 1)].set(A[1:])
-        M = jnp.kron(Dr, eye) - h * blocks(diagonal)
-    elif grid.scheme == "LGR":
+    if grid.scheme == "LGR":
         # point i >= 1 is state row i - 1 of X_r: the block sub-diagonal of A_i
         below = jnp.zeros((n, n, n_x, n_x)).at[jnp.arange(1, n), jnp.arange(n - 1)].set(A[1:])
         M = jnp.kron(Dr, eye) - h * blocks(below)
@@ -211,36 +192,24 @@ def _segment_maps(A, B, c, grid, h):
         rhs_c = jnp.concatenate([rhs_c, h * (w @ c)[:, None]])
     rows = M.shape[0] // n_x
     sol = dense_solve(M, jnp.concatenate([rhs_x, rhs_u, rhs_c], axis=1))
-    if lgl:
-        # point 0's defect D_00 x + (D_0,1: (x) I) X_r - h (A_0 x + B_0 U_0 + c_0) = 0
-        R = jnp.kron(grid.D[0, 1:][None], eye)
-        cond = R @ sol
-        Q = grid.D[0, 0] * eye - h * A[0] + cond[:, :n_x]
-        H = cond[:, n_x:n_x + n * n_u].reshape(n_x, n, n_u).at[:, 0].add(-h * B[0])
-        q = cond[:, -1] - h * c[0]
-    else:
-        Q, H, q = jnp.zeros((0, n_x)), jnp.zeros((0, n, n_u)), jnp.zeros((0,))
     P = sol[:, :n_x].reshape(rows, n_x, n_x)
     G = sol[:, n_x:n_x + n * n_u].reshape(rows, n_x, n, n_u)
-    return P, G, sol[:, -1].reshape(rows, n_x), M, (Q, H, q)
+    return P, G, sol[:, -1].reshape(rows, n_x), M
 
 
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class CondensedMesh:
-    """Segmented LGR, LG or LGL transcription of x' = A_i x + B_i u + c_i with the states
-    eliminated (`_segment_maps`); r rows after each segment's start (LGR r = n, LG r = n + 1,
-    LGL r = n - 1).
+    """Segmented LGR or LG transcription of x' = A_i x + B_i u + c_i with the states
+    eliminated (`_segment_maps`); r rows after each segment's start (LGR r = n, LG r = n + 1).
 
     P (K, r, n_x, n_x), G (K, r, n_x, n, n_u), g (K, r, n_x): state rows after each segment's
-    start, X_r,k = P_k x_k + G_k U_k + g_k (the last row is the next segment's start x_{k+1}).
-    The constrained outputs y = Phi x_0 + sum_{k,i} E_{k,i} U_{k,i} + o must equal
-    `target(x_f)`: y is the final state x_K, then (LGL) each segment's condition on its
-    controls Q_k x_k + H_k U_k + q_k (= 0), so y has m = n_x (LGR, LG) or n_x (K + 1) (LGL)
-    rows: Phi (m, n_x), E (K, n, m, n_u), o (m,); Psi (K, m, n_x) = d y / d x_{k+1} (the
-    sensitivity of the outputs to each segment's end); M (K, r n_x, r n_x) the segments'
-    equations in X_r; weights (n,) the segment grid's quadrature weights; scheme "LGR", "LG"
-    or "LGL" (static).
+    start, X_r,k = P_k x_k + G_k U_k + g_k (the last row is the next segment's start x_{k+1});
+    Phi (n_x, n_x), E (K, n, n_x, n_u) and o (n_x):
+    x_K = Phi x_0 + sum_{k,i} E_{k,i} U_{k,i} + o; Psi (K, n_x, n_x) = d x_K / d x_{k+1}
+    (the sensitivity of the final state to each segment's end); M (K, r n_x, r n_x) the
+    segments' equations in X_r; weights (n,) the segment grid's quadrature weights; scheme
+    "LGR" or "LG" (static).
     """
 
     P: jax.Array
@@ -264,54 +233,37 @@ class CondensedMesh:
         _, X = jax.lax.scan(step, x0, (self.P, self.G, self.g, U))
         return X
 
-    def target(self, xf):
-        """The value y must take (m,): x_f, then (LGL) zero for every segment's conditions."""
-        return jnp.concatenate([xf, jnp.zeros(self.Phi.shape[0] - xf.shape[0], xf.dtype)])
-
     def collocation_rows(self, X):
         """The collocation points' states (K n, n_x) of `states`' rows X (LGR: each segment's
-        first n rows; LG: its Gauss points, after its start; LGL: its n rows, both ends)."""
+        first n rows; LG: its Gauss points, after its start)."""
         n = self.E.shape[1]
-        first = 1 if self.scheme == "LG" else 0
+        first = 0 if self.scheme == "LGR" else 1
         return X[:, first:first + n].reshape(-1, X.shape[-1])
 
     def mesh_rows(self, X):
-        """`states`' rows X in the layout of the mesh's state rows (`LGRMesh`, `LGMesh`,
-        `LGLMesh`): each segment's rows before the next segment's start, then the final state
-        (LGL: every segment's n rows, its end the next one's start again)."""
-        if self.scheme == "LGL":
-            return X.reshape(-1, X.shape[-1])
+        """`states`' rows X in the layout of the mesh's state rows (`LGRMesh`, `LGMesh`): each
+        segment's rows before the next segment's start, then the final state."""
         return jnp.concatenate([X[:, :-1].reshape(-1, X.shape[-1]), X[-1, -1:]])
 
     def costates(self, nu):
-        """The costate estimates (K, n, n_x) at the collocation points of the multipliers nu
-        (m,) of the outputs y (the final state's, then on LGL each segment's conditions
-        mu_k), from the multipliers Lambda_k = M_k^-T (e_last x Psi_k^T nu) of each segment's
-        equations (LGL: plus (D_0,1: x I)^T mu_k, the conditions' dependence on X_r): LGR
-        lambda_i = Lambda_i / w_i, LG lambda_i = Lambda_i / w_i + Lambda_e (Lambda_e the
-        quadrature row's) (Garg et al. 2010, the Radau and Gauss costate estimates), LGL
-        lambda_0 = -mu_k / w_0 and lambda_i = Lambda_i / w_i after it, so that E_i^T nu =
-        h_k w_i B_i^T lambda_i in every scheme; they approximate lambda(s_i) = Phi(s_f,
-        s_i)^T nu_f."""
-        n_x, n = self.Phi.shape[1], self.E.shape[1]
-        lgl = self.scheme == "LGL"
-        mu = nu[n_x:].reshape(-1, n_x) if lgl else jnp.zeros((self.M.shape[0], 0))
-        first = jnp.asarray(MESHES["LGL"][1](n).D)[0, 1:] if lgl else None
+        """The costate estimates (K, n, n_x) at the collocation points of the final-state
+        multiplier nu, from the multipliers Lambda_k = M_k^-T (e_last x Psi_k^T nu) of each
+        segment's equations: LGR lambda_i = Lambda_i / w_i, LG lambda_i = Lambda_i / w_i +
+        Lambda_e (Lambda_e the quadrature row's) (Garg et al. 2010, the Radau and Gauss
+        costate estimates), so that E_i^T nu = h_k w_i B_i^T lambda_i either way; they
+        approximate lambda(s_i) = Phi(s_f, s_i)^T nu."""
+        n_x, n = self.Phi.shape[0], self.E.shape[1]
 
-        def one(M, Psi, mu_k):
-            last = jnp.zeros((M.shape[0] // n_x, n_x)).at[-1].set(Psi.T @ nu)
-            if lgl:
-                last = last + first[:, None] * mu_k[None]
-            lam = dense_solve(M.T, last.reshape(-1, 1))[:, 0].reshape(-1, n_x)
-            if lgl:
-                return jnp.concatenate([-mu_k[None], lam]) / self.weights[:, None]
+        def one(M, Psi):
+            last = jnp.zeros((M.shape[0] // n_x, n_x)).at[-1].set(Psi.T @ nu).reshape(-1)
+            lam = dense_solve(M.T, last[:, None])[:, 0].reshape(-1, n_x)
             points = lam[:n] / self.weights[:, None]
             return points if self.scheme == "LGR" else points + lam[n]
-        return jax.vmap(one)(self.M, self.Psi, mu)
+        return jax.vmap(one)(self.M, self.Psi)
 
 
 def condensed_mesh(A, B, mesh: SegmentedMesh, c=None) -> CondensedMesh:
-    """Transcribe x' = A x + B u + c on a `SegmentedMesh` (LGR, LG or LGL) and eliminate the
+    """Transcribe x' = A x + B u + c on a `SegmentedMesh` (LGR or LG) and eliminate the
     states (see `CondensedMesh`). A (n_x, n_x) and B (n_x, n_u) constant, or per collocation
     point (K, n, n_x, n_x) and (K, n, n_x, n_u); c (K, n, n_x) or None (0). Continuity
     across segments is exact (each segment starts from the previous one's end)."""
@@ -320,28 +272,15 @@ def condensed_mesh(A, B, mesh: SegmentedMesh, c=None) -> CondensedMesh:
     A = jnp.broadcast_to(A, (K, n, n_x, n_x))
     B = jnp.broadcast_to(B, (K, n, n_x, n_u))
     c = jnp.zeros((K, n, n_x), A.dtype) if c is None else c
-    P, G, g, M, (Q, H, q) = jax.vmap(
-        lambda a, b, ci, h: _segment_maps(a, b, ci, mesh.grid, h))(A, B, c, mesh.half_lengths)
+    P, G, g, M = jax.vmap(lambda a, b, ci, h: _segment_maps(a, b, ci, mesh.grid, h))(
+        A, B, c, mesh.half_lengths)
     P_end, G_end, g_end = P[:, -1], G[:, -1], g[:, -1]    # (K, n_x, n_x), (K, n_x, n, n_u)
-    n_c = Q.shape[1]                                      # conditions a segment (LGL: n_x)
-    m = n_x + K * n_c
 
-    def placed(k, rows, shape):
-        """Segment k's conditions `rows` at their place among the outputs y."""
-        zero = jnp.zeros((m, *shape), A.dtype)
-        return zero if n_c == 0 else jax.lax.dynamic_update_slice_in_dim(
-            zero, rows, n_x + k * n_c, axis=0)
+    def back(Psi, pg):
+        P_k, G_k, g_k = pg
+        return Psi @ P_k, (Psi, jnp.einsum("ab,bjc->jac", Psi, G_k), Psi @ g_k)
 
-    def back(S, inputs):
-        # S = d y / d x_{k+1}: through the segment's end, and its own conditions on x_k, U_k
-        k, P_k, G_k, g_k, Q_k, H_k, q_k = inputs
-        E_k = jnp.einsum("ab,bjc->jac", S, G_k) + placed(k, H_k, (n, n_u)).transpose(1, 0, 2)
-        o_k = S @ g_k + placed(k, q_k, ())
-        return S @ P_k + placed(k, Q_k, (n_x,)), (S, E_k, o_k)
-
-    start = jnp.zeros((m, n_x), A.dtype).at[:n_x].set(jnp.eye(n_x))
-    Phi, (Psi, E, o) = jax.lax.scan(back, start, (jnp.arange(K), P_end, G_end, g_end, Q, H, q),
-                                    reverse=True)
+    Phi, (Psi, E, o) = jax.lax.scan(back, jnp.eye(n_x), (P_end, G_end, g_end), reverse=True)
     return CondensedMesh(P=P, G=G, g=g, Phi=Phi, E=E, o=jnp.sum(o, axis=0), Psi=Psi, M=M,
                          weights=jnp.asarray(mesh.grid.weights), scheme=mesh.grid.scheme)
 
@@ -353,9 +292,7 @@ class FuelNLP:
     sum_i c_i l_eps(|v_i|) subject to sum_i E_i v_i = d, |v_i| <= 1 (v = u / u_max at the
     collocation points), with what maps its solution back.
 
-    E (K n, m, 3), c (K n,), d (m,) (m = 6, or 6 (K + 1) on LGL segments: the final state,
-    then each segment's conditions on its controls, `CondensedMesh`); cond: the
-    `CondensedMesh` in s (the solver's units of
+    E (K n, 6, 3), c (K n,), d (6,); cond: the `CondensedMesh` in s (the solver's units of
     `transfer_ocp`); mesh_s: the mesh with breaks in s; x0, xf: scaled boundary states;
     umax: u_max in the solver's control unit; rate: n dt/ds at the points (K n,).
     """
@@ -383,10 +320,10 @@ class FuelNLP:
 @dataclass(frozen=True)
 class Transcription:
     """The problem on a mesh (built once per solve, not a pytree): the energy-optimal
-    transfer's `OptimalControlProblem` `ocp` on the `LGRMesh`, `LGMesh` or `LGLMesh` `grid`
-    (the same mesh in tau), its chief samples `chief` at the state rows, and the chief's
-    integration flag `ok`; s_f and check_chief (the chief at the check mesh's rows, with its
-    flag) where `transcribe` was given them (`transfer_chief`), else None."""
+    transfer's `OptimalControlProblem` `ocp` on the `LGRMesh` or `LGMesh` `grid` (the same
+    mesh in tau), its chief samples `chief` at the state rows, and the chief integration's
+    flag `ok`; s_f and check_chief (the chief at the check mesh's rows, with its flag) where
+    `transcribe` was given them (`transfer_chief`), else None."""
 
     problem: FuelOptimalTransfer
     mesh: SegmentedMesh
@@ -422,10 +359,10 @@ class Transcription:
             self.chief.state[collocated_rows(grid)])
         umax = problem.max_acceleration / control_scale(self.problem.energy_problem())
         x0, xf = ocp.params["x0"], ocp.params["xf"]
-        return FuelNLP(E=umax * cond.E.reshape(K * n, -1, 3),
+        return FuelNLP(E=umax * cond.E.reshape(K * n, 6, 3),
                        c=umax * mesh_s.weights.reshape(-1) * rate,
-                       d=cond.target(xf) - cond.Phi @ x0 - cond.o, cond=cond, mesh_s=mesh_s,
-                       x0=x0, xf=xf, umax=umax, rate=rate)
+                       d=xf - cond.Phi @ x0 - cond.o, cond=cond, mesh_s=mesh_s, x0=x0,
+                       xf=xf, umax=umax, rate=rate)
 
 
 def transcribe(problem: FuelOptimalTransfer, mesh: SegmentedMesh,
@@ -450,15 +387,14 @@ def delta_v_unit(problem: FuelOptimalTransfer):
 
 def collocated_trajectory(tr: Transcription, nlp: FuelNLP, rows, controls_si, nu, unit,
                           magnitude=0.0) -> Collocated:
-    """The `Collocated` trajectory (SI, LVLH) on the transcription's mesh in tau,
+    """The `Collocated` trajectory (SI, LVLH) on the transcription's `LGRMesh` or `LGMesh`,
     with the chief's clock: the scaled state rows `rows` (the mesh's `n_rows`, 6;
     `CondensedMesh.mesh_rows`) in LVLH, the controls `controls_si` (K n, 3) in m/s^2
     (`magnitude` > 0: a constant-magnitude engine), and the costates of the final-state
     multiplier nu: dJ/dx (J in units of `unit` per unit of the solver's cost;
     `CondensedMesh.costates`, mapped by the state's scaling)."""
     ocp, chief, energy = tr.ocp, tr.chief, tr.problem.energy_problem()
-    rows_s = (nlp.mesh_s.points.reshape(-1) if nlp.mesh_s.grid.scheme == "LGL" else
-              jnp.concatenate([nlp.mesh_s.state_points[:, :-1].reshape(-1), ocp.sf[None]]))
+    rows_s = jnp.concatenate([nlp.mesh_s.state_points[:, :-1].reshape(-1), ocp.sf[None]])
     lam = nlp.cond.costates(nu).reshape(-1, 6)
     costates = unit * jax.vmap(
         lambda p, s: jax.vjp(lambda x: model_state(energy, x, s), jnp.zeros(6))[1](p)[0])(

@@ -117,9 +117,9 @@ def default_method(problem, grid):
             and grid.scheme == "LGL" else "newton")
 
 
-def refine_method(problem):
-    """The method of mesh refinement: Newton-KKT, inside the augmented Lagrangian where the
-    transfer has safety constraints."""
+def refine_method(problem, ladder=None):
+    """The method of mesh refinement (on any `ladder`): Newton-KKT, inside the augmented
+    Lagrangian where the transfer has safety constraints."""
     return "augmented-lagrangian" if problem.constraints else "newton"
 
 

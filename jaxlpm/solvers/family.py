@@ -24,7 +24,7 @@ class FamilySolver:
                   `solve(problem)` runs for a concrete problem without a grid, with the
                   method `refine_method` (`jaxlpm.solvers.refine`; judge a
                   `jaxlpm.solution.Judge`)
-    refine_method the method refinement uses: a name, or problem -> name
+    refine_method the method refinement uses: a name, or (problem, ladder or None) -> name
     ladders       refine also takes a `MeshLadder` (the grid of `solve(problem, ladder)`)
     """
 
@@ -41,9 +41,9 @@ class FamilySolver:
     def solve(self, problem, grid, method, options, judge):
         """The solution of `problem` with `judge` (INACCURATE where the error estimate
         exceeds the tolerance) applied; grid a `MeshLadder`: refinement on that ladder."""
-        refine_method = (self.refine_method(problem) if callable(self.refine_method)
-                         else self.refine_method)
         ladder = grid if isinstance(grid, MeshLadder) else None
+        refine_method = (self.refine_method(problem, ladder) if callable(self.refine_method)
+                         else self.refine_method)
         if ladder is not None:
             if not self.ladders:
                 raise ValueError(f"a MeshLadder refines energy-optimal, fuel-optimal and "

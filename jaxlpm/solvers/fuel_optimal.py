@@ -4,11 +4,13 @@ the energy-to-fuel homotopy (`jaxlpm.nlp.homotopy`), with mesh refinement at the
 (Yue & Duan 2016's pipeline: an energy-optimal Radau pseudospectral solution, then the
 homotopy to the bang-bang fuel optimum).
 
-`jaxlpm.solve(problem, mesh)` (`run`): one mesh of LGR, LG or LGL segments (jit; vmap over
-problems and meshes of one shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy
-tolerance (`refine_transfer`; `solve(problem, MeshLadder(rungs, scheme="LGL"))` on LGL
-segments). With safety constraints, or when asked (method "augmented-lagrangian"), the same
-pipeline runs with the states kept (`jaxlpm.solvers.fuel_constrained`).
+`jaxlpm.solve(problem, mesh)` (`run`): one mesh (jit; vmap over problems and meshes of one
+shape). `jaxlpm.solve(problem)`: mesh refinement to the accuracy tolerance
+(`refine_transfer`; `solve(problem, MeshLadder(rungs, scheme="LG"))` on LG segments). With
+safety constraints, on LGL segments (whose states the condensed transcription cannot
+eliminate: an LGL segment collocates both its ends) or when asked (method
+"augmented-lagrangian"), the same pipeline runs with the states kept
+(`jaxlpm.solvers.fuel_constrained`).
 `indirect_fuel_optimal(problem, breaks)`: the paper's indirect method on the linear model,
 shooting on the costates with the smoothed switching law, continued in eps from the LGR
 costates. `refine_fuel_optimal(problems, segments, points)`: host-side passes over
@@ -52,7 +54,7 @@ import numpy as np
 from ..compilation import compiled, pipelined
 from .._validation import is_concrete, require_x64
 from ..collocation import interpolation_matrix, lg_nodes_weights
-from ..collocation.segments import (MESHES, SEGMENTED_SCHEMES, SegmentedMesh,
+from ..collocation.segments import (CONDENSED_SCHEMES, MESHES, SEGMENTED_SCHEMES, SegmentedMesh,
                                    aligned_breaks, as_segmented, segmented_lgr, segmented_mesh,
                                    tau_mesh, uniform_breaks)
 from ..dynamics import yamanaka_ankersen_stm
@@ -84,7 +86,7 @@ def _exact_primer(sol, t):
     o = problem.orbit
     f = true_anomaly_from_time(o, t)
     phi = yamanaka_ankersen_stm(sol.trajectory.sf, f, problem.duration - t, o.e, o.k2)
-    lam = phi.T @ sol.stats["multipliers"][:6]       # the final state's (`CondensedMesh`)
+    lam = phi.T @ sol.stats["multipliers"]
     return -(o.k2 / (o.mean_motion * (1.0 + o.e * jnp.cos(f)))) * lam[3:]
 
 
@@ -110,15 +112,15 @@ def _linearisations(tr, options: HomotopyOptions):
     itself: the homotopy's residual is ill-conditioned at a point inside the throttle's
     transition (slope 1 / (2 eps)), so it is not re-evaluated on a later linearisation. The
     first run, about zero states, is the loop's first pass (one homotopy in the program)."""
-    def run_at(ref, nu0=None):
+    def run_at(ref, nu0):
         nlp = tr.linearised(ref)
-        res = run_homotopy(nlp.E, nlp.c, nlp.d, jnp.zeros_like(nlp.d) if nu0 is None else nu0,
-                           options)
+        res = run_homotopy(nlp.E, nlp.c, nlp.d, nu0, options)
         return nlp, res, nlp.cond.collocation_rows(nlp.states(res.nu, res.eps))
 
     ref = jnp.zeros((tr.mesh.n_points, 6), tr.ocp.params["x0"].dtype)
+    nu0 = jnp.zeros_like(tr.ocp.params["x0"])
     if tr.problem.model == "linear":
-        nlp, res, _ = run_at(ref)
+        nlp, res, _ = run_at(ref, nu0)
         return nlp, res, ref, jnp.asarray(1), jnp.zeros((), ref.dtype)
 
     def going(state):
@@ -129,12 +131,12 @@ def _linearisations(tr, options: HomotopyOptions):
 
     def body(state):
         _, res, _, ref, k, _ = state
-        nlp, res, X = run_at(ref, jnp.where(k == 0, 0.0, res.nu_energy))
+        nlp, res, X = run_at(ref, jnp.where(k == 0, nu0, res.nu_energy))
         return nlp, res, ref, X, k + 1, jnp.max(jnp.abs(X - ref))
 
-    # the first pass's carry: zeros of run_at's outputs (never read: k == 0 starts from 0)
+    # the first pass's carry: zeros of run_at's outputs (never read: k == 0 starts from nu0)
     nlp0, res0, _ = jax.tree_util.tree_map(lambda a: jnp.zeros(a.shape, a.dtype),
-                                           jax.eval_shape(run_at, ref))
+                                           jax.eval_shape(run_at, ref, nu0))
     nlp, res, ref, _, runs, change = jax.lax.while_loop(
         going, body, (nlp0, res0, ref, ref, jnp.asarray(0), jnp.zeros((), ref.dtype)))
     return nlp, res, ref, runs, change
@@ -213,23 +215,35 @@ def _compiled(problem, mesh, options):
 DEFAULT_SEGMENTS, DEFAULT_POINTS = 24, 8     # Yue & Duan 2016's mesh
 
 
-def check_segmented(mesh, what: str) -> SegmentedMesh:
+def check_segmented(mesh, what: str, condensed: bool = True, hint: str = "") -> SegmentedMesh:
     """`as_segmented(mesh)` for the segmented families (`what` their name in the message): a
-    ValueError unless it is a `SegmentedMesh` of at least `MIN_POINTS` points a segment."""
+    ValueError unless it is a `SegmentedMesh` of at least `MIN_POINTS` points a segment, of
+    LGR or LG segments where the transcription is `condensed` (`CONDENSED_SCHEMES`; `hint`
+    ends that message)."""
     mesh = as_segmented(mesh)
     if not isinstance(mesh, SegmentedMesh):
         raise ValueError(f"the grid of {what} is a SegmentedMesh (segmented_lgr(breaks, n), "
                          f"segmented_lg(breaks, n) or segmented_lgl(breaks, n), breaks as "
                          f"fractions of [s0, s_f]) or a solution's LGRMesh, LGMesh or LGLMesh, "
                          f"got {type(mesh).__name__}")
+    if condensed and mesh.grid.scheme not in CONDENSED_SCHEMES:
+        raise ValueError(f"{what} takes LGR or LG segments (its condensed transcription "
+                         f"eliminates the states segment by segment from its start, and an "
+                         f"LGL segment collocates both its ends), got {mesh.grid.scheme} "
+                         f"segments{hint}")
     if mesh.grid.n < MIN_POINTS:
         raise ValueError(f"the segments of {what} need at least {MIN_POINTS} "
                          f"{mesh.grid.scheme} points, got {mesh.grid.n}")
     return mesh
 
 
+HOMOTOPY_ONLY = ("a fuel-optimal transfer by the homotopy", True,
+                 ": on LGL segments use method 'augmented-lagrangian'")   # check_segmented's
+
+
 def check_grid(mesh, method):
-    mesh = check_segmented(mesh, "a fuel-optimal transfer")
+    mesh = check_segmented(mesh, *(HOMOTOPY_ONLY if method == "homotopy"
+                                   else ("a fuel-optimal transfer", False)))
     if is_concrete(mesh.breaks):
         b = np.asarray(mesh.breaks)
         if b.ndim == 1 and not (abs(b[0]) < 1e-15 and abs(b[-1] - 1.0) < 1e-15):
@@ -239,9 +253,13 @@ def check_grid(mesh, method):
 
 
 def default_method(problem, mesh=None):
-    """The augmented Lagrangian (`jaxlpm.solvers.fuel_constrained`) with safety constraints,
-    else the condensed homotopy."""
-    return "augmented-lagrangian" if problem.constraints else "homotopy"
+    """The augmented Lagrangian (`jaxlpm.solvers.fuel_constrained`) with safety constraints
+    or on LGL segments (`mesh` a mesh or a `MeshLadder`), else the condensed homotopy."""
+    segmented = as_segmented(mesh)
+    scheme = (mesh.scheme if isinstance(mesh, MeshLadder) else segmented.grid.scheme
+              if isinstance(segmented, SegmentedMesh) else None)
+    return ("augmented-lagrangian" if problem.constraints or scheme == "LGL"
+            else "homotopy")
 
 
 def run(problem, mesh, method, options) -> Solution:
@@ -249,12 +267,14 @@ def run(problem, mesh, method, options) -> Solution:
     span [s0, s_f] (from 0 to 1; of the transfer time on a circular chief). jit-compiled
     once per mesh shape and options; vmap-able over problems and meshes. A solution's own
     `grid` (an `LGRMesh`, `LGMesh` or `LGLMesh` in tau) is accepted too. Traced bad input
-    gives INVALID_INPUT. Method "homotopy" (`HomotopyOptions`) for transfers without safety
-    constraints; "augmented-lagrangian" (`FuelALOptions`, the states kept) for any, the only
-    one with safety constraints."""
+    gives INVALID_INPUT. Method "homotopy" (`HomotopyOptions`; LGR or LG segments) for
+    transfers without safety constraints; "augmented-lagrangian" (`FuelALOptions`; LGR, LG
+    or LGL segments, the states kept) for any, the only one with safety constraints."""
     if method == "homotopy" and problem.constraints:
         raise ValueError("a fuel-optimal transfer with safety constraints is solved by method "
                          f"'augmented-lagrangian' (options FuelALOptions), got {method!r}")
+    if method == "homotopy":
+        check_segmented(mesh, *HOMOTOPY_ONLY)
     # traced too: one program, not op by op
     if method == "augmented-lagrangian":
         return constrained_fuel_optimal(problem, as_segmented(mesh), options)
@@ -280,12 +300,17 @@ u_max between the points beside short or smoothed switches; docs/fuel-optimal.md
 CONSTRAINED_LADDER = _ladder((16, 24))
 
 
-def check_ladder(ladder: MeshLadder) -> None:
-    """A fuel-optimal ladder is of LGR, LG or LGL segments of at least `MIN_POINTS` points."""
-    if ladder.scheme not in SEGMENTED_SCHEMES:
-        raise ValueError(f"fuel-optimal and condensed minimum-time transfers refine on "
-                         f"segments of {', '.join(SEGMENTED_SCHEMES)}, got a {ladder.scheme} "
-                         f"ladder")
+def check_ladder(ladder: MeshLadder, condensed: bool = True) -> None:
+    """A fuel-optimal ladder is of segments of at least `MIN_POINTS` points, LGR or LG ones
+    for the condensed transcriptions (`condensed`: the homotopy, minimum-time method
+    "condensed")."""
+    schemes = CONDENSED_SCHEMES if condensed else SEGMENTED_SCHEMES
+    if ladder.scheme not in schemes:
+        raise ValueError(f"the homotopy and minimum-time method 'condensed' refine on LGR or "
+                         f"LG segments (their states are eliminated segment by segment, and an "
+                         f"LGL segment collocates both its ends; a fuel-optimal transfer "
+                         f"refines on LGL segments by method 'augmented-lagrangian'), got a "
+                         f"{ladder.scheme} ladder")
     if min(n for _, n in ladder.rungs) < MIN_POINTS:
         raise ValueError(f"the ladder's segments need at least {MIN_POINTS} points, got "
                          f"{ladder.rungs}")
@@ -373,11 +398,13 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None,
     the breaks follow them; `switch_breaks`), until the error estimate meets the tolerance
     (`judge` leaves it SUCCESS) or the last mesh (then INACCURATE). A solve that fails outright (not
     converged) ends the refinement with its status. stats gain mesh_passes.
-    ladder: default `LADDER`, `CONSTRAINED_LADDER` with safety constraints."""
-    method = default_method(problem)
+    ladder: default `LADDER`, `CONSTRAINED_LADDER` with safety constraints. The method is
+    `default_method(problem, ladder)`: the augmented Lagrangian with safety constraints or
+    on an LGL ladder."""
     if ladder is None:
         ladder = CONSTRAINED_LADDER if problem.constraints else LADDER
-    check_ladder(ladder)
+    method = default_method(problem, ladder)
+    check_ladder(ladder, condensed=method == "homotopy")
     if options is None:
         options = FuelALOptions() if method == "augmented-lagrangian" else HomotopyOptions()
 

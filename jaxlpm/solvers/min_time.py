@@ -315,5 +315,6 @@ FAMILY = FamilySolver(
     methods={"augmented-lagrangian": ALOptions, "condensed": CondensedOptions},
     run=run, default_grid=_default_grid, check_grid=check_grid,
     default_method=_default_method, refine=refine_transfer,
-    refine_method=lambda problem: "augmented-lagrangian" if _hcw(problem) else "condensed",
+    refine_method=lambda problem, ladder: "augmented-lagrangian" if _hcw(problem)
+    else "condensed",
     ladders=True)

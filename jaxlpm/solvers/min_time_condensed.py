@@ -160,8 +160,7 @@ def _duration(problem, mesh, ref, T0, hi, options):
     u_start = u0 - jnp.log(4.0)              # the fallback's first duration
     inf = jnp.asarray(jnp.inf, u0.dtype)
     zero = 0.0 * u0
-    outputs = jax.eval_shape(lambda: _condensed(problem, mesh, T0, ref)[1].d).shape
-    p0 = jnp.zeros(outputs, u0.dtype)                 # the final state's (LGL: and more)
+    p0 = jnp.zeros(ref.shape[-1], u0.dtype)
     s = jax.lax.while_loop(lambda s: s[0] != DONE, body,
                            (jnp.asarray(NEWTON), u0, zero, zero, inf, jnp.asarray(0),
                             p0, zero, zero))
