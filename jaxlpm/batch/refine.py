@@ -125,9 +125,9 @@ def fuel_ladder(ladder, passes=fuel_optimal.ALIGN_PASSES):
 @dataclass(frozen=True)
 class FuelPlan:
     """Fuel-optimal transfers: the homotopy (`HomotopyOptions`) or the augmented Lagrangian
-    (`FuelALOptions`: with safety constraints, on LGL segments) on `SegmentedMesh` rungs (breaks as fractions of the transfer), the first
-    uniform, each next one with a break at every switching time of the member's previous
-    solution (`aligned_breaks`)."""
+    (`FuelALOptions`: with safety constraints, on LGL segments) on `SegmentedMesh` rungs
+    (breaks as fractions of the transfer), the first uniform, each next one with a break at
+    every switching time of the member's previous solution (`aligned_breaks`)."""
 
     ladder: MeshLadder = fuel_ladder(fuel_optimal.LADDER)
     options: HomotopyOptions | FuelALOptions = HomotopyOptions()
