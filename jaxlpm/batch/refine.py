@@ -146,7 +146,7 @@ class FuelPlan:
     def next_breaks(self, carry, shape, previous):
         return fuel_optimal.next_breaks(carry["breaks"], self._grid(previous[1]).weights,
                                         carry["throttle"], carry["threshold"], *shape,
-                                        self.ladder.scheme)
+                                        self.ladder.scheme, self.method)
 
     def solve(self, problem, breaks, prev, shape, previous, options):
         return fuel_optimal.run(problem, SegmentedMesh(breaks, self._grid(shape[1])),

@@ -363,19 +363,20 @@ COAST_RATIO = 2.0   # a break is moved only where the coasting segment beside it
 
 
 def switch_breaks(k: int, runs, scheme: str = "LGR", n: int = DEFAULT_POINTS,
-                  sharp=()) -> np.ndarray:
+                  sharp=(), min_gap: float = 1e-6) -> np.ndarray:
     """k segments of [0, 1] with a break beside every switch of the burns `runs` (`burn_runs`:
     (start, end) fractions), or uniform ones where k segments cannot hold them all (k below
     the arcs between the switches): `aligned_breaks` at the switches, then the break of each
     bang-bang switch (`sharp`: per run, (start, end) flags of `sharp_switches`; missing: not
     sharp) moved into the burn by `switch_margins` of the coasting segment beside it (where
     that is at most `COAST_RATIO` times as long as the burning one beside it), so that the
-    partial point at the switch falls in the coasting segment."""
+    partial point at the switch falls in the coasting segment. Switches closer than min_gap
+    (a fraction of the transfer) are merged (`aligned_breaks`)."""
     starts = [a for a, _ in runs if 0.0 < a < 1.0]
     ends = [b for _, b in runs if 0.0 < b < 1.0]
     if k < len(starts) + len(ends) + 1:
         return uniform_breaks(0.0, 1.0, k)
-    b = aligned_breaks(0.0, 1.0, k, starts + ends)
+    b = aligned_breaks(0.0, 1.0, k, starts + ends, min_gap)
     before, after = switch_margins(scheme, n)
     moved = b.copy()
     for (start, end), (start_sharp, end_sharp) in zip(runs, sharp):
@@ -417,7 +418,7 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None,
     for k, n in (rung for rung in ladder.rungs for _ in range(passes)):
         if int(solution.status) != Status.INACCURATE:
             break
-        solution = solve_on(next_breaks(*_throttles(solution), k, n, ladder.scheme), n)
+        solution = solve_on(next_breaks(*_throttles(solution), k, n, ladder.scheme, method), n)
         done += 1
     return solution.replace(stats=dict(solution.stats, mesh_passes=done))
 
@@ -539,10 +540,17 @@ def _burn_runs(sol: Solution):
 
 MIN_RUN = 1e-3    # a burn inside the transfer shorter than this fraction of the mesh's shortest
 #                  segment is not aligned with (`next_breaks`)
+MIN_GAP = {"homotopy": 1e-6, "augmented-lagrangian": 1e-3}
+"""Per method, switches closer than this fraction of the transfer share a break
+(`switch_breaks`). The augmented Lagrangian's Newton-KKT systems hold the states, whose
+defects scale as 1 / (segment length): on segments of 7.8e-5 and 6.1e-6 of the transfer (two
+switches of a short burn) every eps step of two dispersed transfers ended MAX_ITERATIONS on
+LGL segments, and with 1e-3 each of their meshes converged; the condensed homotopy eliminates
+the states and keeps such segments (8 s burns after 235 s of coast, docs/accuracy.md)."""
 
 
-def next_breaks(breaks, weights, throttle, threshold, k: int, n: int,
-                scheme: str) -> np.ndarray:
+def next_breaks(breaks, weights, throttle, threshold, k: int, n: int, scheme: str,
+                method: str = "homotopy") -> np.ndarray:
     """`switch_breaks` for the next mesh (k segments of n points of `scheme`) from a mesh's
     breaks (fractions), its segment's weights and the throttles at its points (host, as
     `burn_runs` takes them). A burn inside the transfer shorter than `MIN_RUN` of the
@@ -550,12 +558,13 @@ def next_breaks(breaks, weights, throttle, threshold, k: int, n: int,
     an LGL segment's end (its control weakly determined, both ends being collocated; on the
     keep-out flyby a point at a break fired at 0.033 of the bound, a 3.7e-5 run), and its two
     breaks would make a segment that short (the next mesh's solve then ended MAX_ITERATIONS
-    at every eps)."""
+    at every eps). Switches closer than `MIN_GAP` of `method` share a break."""
     runs = burn_runs(breaks, weights, throttle, threshold)
     shortest = MIN_RUN * float(np.min(np.diff(np.asarray(breaks, np.float64))))
     kept = [i for i, (a, b) in enumerate(runs) if a == 0.0 or b == 1.0 or b - a >= shortest]
     sharp = sharp_switches(throttle, threshold)
-    return switch_breaks(k, [runs[i] for i in kept], scheme, n, [sharp[i] for i in kept])
+    return switch_breaks(k, [runs[i] for i in kept], scheme, n, [sharp[i] for i in kept],
+                         MIN_GAP[method])
 
 
 def burn_runs(breaks, weights, throttle, threshold=BURNING):
