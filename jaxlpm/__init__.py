@@ -14,10 +14,10 @@ A research script needs only `import jaxlpm as lpm`: a problem (`EnergyOptimalTr
 (`lgl(n)`, `lg(n)`, `lgr(n)`: n points; `lgr_mesh(k, n)`, `lg_mesh(k, n)`, `lgl_mesh(k, n)`:
 k segments; `segmented_lgr`, `segmented_lg`, `segmented_lgl`), `solve(problem, grid)` ->
 `Solution` (without a grid: adaptive mesh refinement to the `Tolerance`; a solution that
-converged but misses it is INACCURATE), `verify.fly(solution)`, `batch` (sweeps, Monte Carlo), `design` (mission parameters
-optimised under uncertainty by optax), `io` (save/load, CSV, CCSDS OEM), `lambert`, `Status`,
-`plot` (figures of solutions and studies; matplotlib is imported only when a figure is
-drawn).
+converged but misses it is INACCURATE), `verify.fly(solution)`, `batch` (sweeps, Monte
+Carlo), `design` (mission parameters optimised under uncertainty by optax), `io` (save/load,
+CSV, CCSDS OEM), `lambert`, `Status`, `plot` (figures of solutions and studies; matplotlib is
+imported only when a figure is drawn).
 """
 
 from . import _cpu_runtime
