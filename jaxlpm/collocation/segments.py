@@ -67,9 +67,7 @@ class SegmentedMesh:
     def state_points(self):
         """s of every segment's state rows, its start and end breaks included: LGR its n
         points (the first is its start) and its end, (K, n + 1); LG its start, its n Gauss
-        points and its end, (K, n + 2); LGL its n points (both ends among them), (K, n)."""
-        if self.grid.scheme == "LGL":
-            return self.points
+        points and its end, (K, n + 2) (the condensed transcription's layouts)."""
         first = [self.breaks[:-1, None]] if self.grid.scheme == "LG" else []
         return jnp.concatenate([*first, self.points, self.breaks[1:, None]], axis=1)
 

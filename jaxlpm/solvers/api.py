@@ -44,9 +44,9 @@ def solve(problem, grid=None, *, method=None, options=None, tolerance=None,
     on the family's ladder); for energy-optimal, fuel-optimal and minimum-time transfers a
     `MeshLadder`: refinement on that ladder (`MeshLadder(rungs, scheme="LG")`: on LG meshes;
     the fuel homotopy and method "condensed" on LGR or LG segments, a fuel-optimal LGL
-    ladder by the augmented Lagrangian). method: None for
-    the family's default (minimum time: "condensed" on a `SegmentedMesh`; fuel-optimal:
-    "augmented-lagrangian" with safety constraints or on LGL segments). options: the
+    ladder by the augmented Lagrangian). method: None for the family's default (minimum
+    time: "condensed" on a `SegmentedMesh`; fuel-optimal: "augmented-lagrangian" with safety
+    constraints or on LGL segments). options: the
     method's frozen options object (`NewtonOptions`, `ALOptions`, `HomotopyOptions`,
     `FuelALOptions`, `CondensedOptions`) or None for its defaults.
     tolerance: a `Tolerance` (SI: position m, velocity m/s; None: `DEFAULT_TOLERANCE`): a

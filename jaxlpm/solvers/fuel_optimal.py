@@ -237,13 +237,15 @@ def check_segmented(mesh, what: str, condensed: bool = True, hint: str = "") -> 
     return mesh
 
 
-HOMOTOPY_ONLY = ("a fuel-optimal transfer by the homotopy", True,
-                 ": on LGL segments use method 'augmented-lagrangian'")   # check_segmented's
+def check_homotopy_mesh(mesh) -> SegmentedMesh:
+    """`check_segmented` for the condensed homotopy: LGR or LG segments."""
+    return check_segmented(mesh, "a fuel-optimal transfer by the homotopy",
+                           hint=": on LGL segments use method 'augmented-lagrangian'")
 
 
 def check_grid(mesh, method):
-    mesh = check_segmented(mesh, *(HOMOTOPY_ONLY if method == "homotopy"
-                                   else ("a fuel-optimal transfer", False)))
+    mesh = (check_homotopy_mesh(mesh) if method == "homotopy"
+            else check_segmented(mesh, "a fuel-optimal transfer", condensed=False))
     if is_concrete(mesh.breaks):
         b = np.asarray(mesh.breaks)
         if b.ndim == 1 and not (abs(b[0]) < 1e-15 and abs(b[-1] - 1.0) < 1e-15):
@@ -255,9 +257,11 @@ def check_grid(mesh, method):
 def default_method(problem, mesh=None):
     """The augmented Lagrangian (`jaxlpm.solvers.fuel_constrained`) with safety constraints
     or on LGL segments (`mesh` a mesh or a `MeshLadder`), else the condensed homotopy."""
-    segmented = as_segmented(mesh)
-    scheme = (mesh.scheme if isinstance(mesh, MeshLadder) else segmented.grid.scheme
-              if isinstance(segmented, SegmentedMesh) else None)
+    if isinstance(mesh, MeshLadder):
+        scheme = mesh.scheme
+    else:
+        segmented = as_segmented(mesh)
+        scheme = segmented.grid.scheme if isinstance(segmented, SegmentedMesh) else None
     return ("augmented-lagrangian" if problem.constraints or scheme == "LGL"
             else "homotopy")
 
@@ -274,7 +278,7 @@ def run(problem, mesh, method, options) -> Solution:
         raise ValueError("a fuel-optimal transfer with safety constraints is solved by method "
                          f"'augmented-lagrangian' (options FuelALOptions), got {method!r}")
     if method == "homotopy":
-        check_segmented(mesh, *HOMOTOPY_ONLY)
+        check_homotopy_mesh(mesh)
     # traced too: one program, not op by op
     if method == "augmented-lagrangian":
         return constrained_fuel_optimal(problem, as_segmented(mesh), options)
