@@ -4,11 +4,13 @@ minimum times against the shooting solution (`min_time_shooting`, exact flow). T
 ladders of LGL segments are solved by the augmented Lagrangian (the homotopy's condensed
 transcription takes LGR and LG segments).
 
-    python experiments/lg_meshes.py
+    python experiments/lg_meshes.py              # every family
+    python experiments/lg_meshes.py --min-time   # the minimum-time cases alone
 
 Results: docs/accuracy.md ("LG and LGL meshes in every family").
 """
 
+import argparse
 import time
 
 import jax
@@ -44,6 +46,14 @@ def timed(fn):
 
 
 def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--min-time", action="store_true", help="the minimum-time cases alone")
+    if not parser.parse_args().min_time:
+        fuel_cases()
+    min_time_cases()
+
+
+def fuel_cases():
     fuel = lpm.FuelOptimalTransfer(CIRCULAR, jnp.zeros(6), jnp.array([0.0, 4000.0, 0, 0, 0, 0]),
                                    jnp.asarray(float(CIRCULAR.period)), jnp.asarray(0.3),
                                    jnp.asarray(50.0), jnp.asarray(1000.0))
@@ -64,6 +74,8 @@ def main():
                                          throw=False))
         row(f"  {scheme} ladder 24 x 8, 48 x 8", sol, float(sol.cost), s)
 
+
+def min_time_cases():
     mt = lpm.MinimumTimeTransfer(ECCENTRIC, jnp.zeros(6), jnp.array([0.0, 1000.0, 0, 0, 0, 0]),
                                  thrust=jnp.asarray(0.1), mass=jnp.asarray(100.0))
     shot = float(lpm.min_time_shooting(mt, *SHOOTING).duration)
@@ -73,6 +85,21 @@ def main():
         sol, s = timed(lambda: lpm.solve(mt, lpm.MeshLadder(((8, 8), (16, 8)), scheme),
                                          throw=False))
         row(f"  condensed, {scheme} ladder 8 x 8, 16 x 8", sol, float(sol.duration), s, shot)
+    sol, s = timed(lambda: lpm.solve(mt, lpm.MeshLadder(((8, 8), (16, 8)), "LGL"),
+                                     throw=False))
+    row("  augmented Lagrangian (true anomaly), LGL ladder 8 x 8, 16 x 8", sol,
+        float(sol.duration), s, shot)
+    for mesh in (lpm.lgl_mesh(4, 8), lpm.lgl_mesh(8, 8), lpm.lgl_mesh(16, 8),
+                 lpm.lgl_mesh(32, 8)):
+        sol, s = timed(lambda: lpm.solve(mt, mesh, throw=False))
+        row("  augmented Lagrangian (true anomaly)", sol, float(sol.duration), s, shot)
+    two_body = mt.replace(model="two-body")
+    print("minimum time, two-body, the same transfer (s; relative to the condensed 16 x 8 LG):")
+    reference = float(lpm.solve(two_body, lpm.segmented_lg(lpm.uniform_breaks(0.0, 1.0, 16), 8),
+                                throw=False).duration)
+    for mesh in (lpm.lgl_mesh(8, 8), lpm.lgl_mesh(16, 8)):
+        sol, s = timed(lambda: lpm.solve(two_body, mesh, throw=False))
+        row("  augmented Lagrangian (true anomaly)", sol, float(sol.duration), s, reference)
 
     hcw = mt.replace(orbit=CIRCULAR)
     shot = float(lpm.min_time_shooting(hcw, *SHOOTING).duration)

@@ -1,6 +1,8 @@
 """Minimum-time transfers on an eccentric chief (issue 22, item 3): method "condensed" on the
 linear (Tschauner-Hempel), two-body and J2 models against the shooting solution on the exact
-Yamanaka-Ankersen flow, and at e = 0 against the HCW augmented-Lagrangian solver.
+Yamanaka-Ankersen flow, and at e = 0 against the HCW augmented-Lagrangian solver; the
+augmented Lagrangian on the chief's true anomaly (issue 19) on the same LGR mesh and on an LGL
+ladder.
 
 The transfer: 0.05 N on 200 kg (0.25 mm/s^2) from rest at the chief to (500, 3000, -100) m
 at rest (tests/test_min_time_eccentric.py), the chief at a = 10000 km, e = 0.3 (at e = 0:
@@ -42,19 +44,22 @@ def main():
     print("\n".join(lines))
     shooting = {e: float(lpm.min_time_shooting(problem(e, "linear"), PANELS).duration)
                 for e in (0.0, 0.3)}
-    cases = [(0.0, "linear", "augmented-lagrangian", None),
-             (0.0, "linear", "condensed", 16), (0.3, "linear", "condensed", 16),
-             (0.3, "two-body", "condensed", 16), (0.3, "j2", "condensed", 16)]
-    for e, model, method, k in cases:
+    al = "augmented-lagrangian"
+    lgr16 = lpm.segmented_lgr(lpm.uniform_breaks(0.0, 1.0, 16), 8)
+    lgl_ladder = lpm.MeshLadder(((1, 32), (2, 48)), scheme="LGL")
+    cases = [(0.0, "linear", al, None),
+             (0.0, "linear", "condensed", lgr16), (0.3, "linear", "condensed", lgr16),
+             (0.3, "two-body", "condensed", lgr16), (0.3, "j2", "condensed", lgr16),
+             (0.3, "linear", al, lgr16), (0.3, "two-body", al, lgr16),
+             (0.3, "linear", al, lgl_ladder), (0.3, "two-body", al, lgl_ladder)]
+    for e, model, method, grid in cases:
         p = problem(e, model)
         t = time.perf_counter()
-        if k is None:
-            sol = lpm.solve(p, method=method, throw=False)
-            mesh = f"default: {sol.grid.n_segments} x {sol.grid.segment.n} LGR"
-        else:
-            sol = lpm.solve(p, lpm.segmented_lgr(lpm.uniform_breaks(0.0, 1.0, k), 8),
-                            throw=False)
-            mesh = f"{k} x 8 LGR"
+        sol = lpm.solve(p, grid, method=method, throw=False)
+        shape = f"{sol.grid.n_segments} x {sol.grid.segment.n} {sol.grid.segment.scheme}"
+        mesh = f"default: {shape}" if grid is None else shape
+        if isinstance(grid, lpm.MeshLadder):
+            mesh = f"LGL ladder (1 x 32, 2 x 48): {shape}"
         seconds = time.perf_counter() - t
         T = float(sol.duration)
         miss = np.asarray(lpm.verify.fly(sol).terminal_error)

@@ -175,7 +175,11 @@ def test_lgl_segments_are_refused_where_states_are_eliminated():
         solve(fuel_problem(), lgl_segments, method="homotopy")
     with pytest.raises(ValueError, match="augmented-lagrangian"):
         solve(fuel_problem(), MeshLadder(((24, 8),), scheme="LGL"), method="homotopy")
-    with pytest.raises(ValueError, match="LGL"):
-        solve(min_time_problem(ECCENTRIC), MeshLadder(((8, 8),), scheme="LGL"))
-    with pytest.raises(ValueError, match="LGL"):
-        solve(min_time_problem(ECCENTRIC), lgl_segments)
+    # minimum time on LGL segments: the augmented Lagrangian, the default there
+    # (tests/test_min_time_eccentric.py), never "condensed"
+    with pytest.raises(ValueError, match="augmented-lagrangian"):
+        solve(min_time_problem(ECCENTRIC), MeshLadder(((8, 8),), scheme="LGL"),
+              method="condensed")
+    with pytest.raises(ValueError, match="LGL segment collocates both its ends.*"
+                                         "augmented-lagrangian"):
+        solve(min_time_problem(ECCENTRIC), lgl_segments, method="condensed")

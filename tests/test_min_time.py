@@ -213,8 +213,8 @@ def test_bad_input_raises():
     prob = smooth_problem()
     grid = lpm.lg(K)
     cases = [
-        # the augmented Lagrangian solves HCW; eccentric chiefs take method "condensed"
-        (prob.replace(orbit=prob.orbit.replace(e=jnp.asarray(0.1))), grid, "HCW transfers"),
+        # the augmented Lagrangian solves the linear and two-body models; J2 takes "condensed"
+        (prob.replace(model="j2"), grid, "'two-body' models"),
         (prob.replace(thrust=jnp.asarray(0.0)), grid, "thrust must be positive"),
         (prob.replace(mass=jnp.asarray(-1.0)), grid, "mass must be positive"),
         (prob.replace(xf=prob.x0), grid, "different from x0"),

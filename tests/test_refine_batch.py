@@ -12,6 +12,7 @@ import pytest
 import jaxlpm as lpm
 from jaxlpm import FuelOptimalTransfer, KeplerOrbit, Status
 from jaxlpm.batch.refine import refine_batch
+from jaxlpm.solvers.min_time_condensed import min_time_shooting
 from jaxlpm.cases import jiang2011
 
 ORBIT = KeplerOrbit(a=jnp.asarray(10000e3), e=jnp.asarray(0.3))
@@ -93,6 +94,20 @@ def test_min_time_members_climb_only_where_they_must():
         assert out["rung"][i] == int(single.stats["mesh_passes"]) - 1
         assert abs(out["cost"][i] - float(single.duration)) <= 1e-10 * float(single.duration)
         assert out["error_position"][i] <= 0.01
+
+
+def test_min_time_batch_on_lgl_segments_keeps_the_true_anomaly_clock():
+    """A batch of eccentric chiefs on the linear model on an LGL ladder: the augmented
+    Lagrangian on the chief's true anomaly (the batch's clock decided from the concrete
+    members: traced, an eccentric member would be INVALID_INPUT on the HCW clock). Both SUCCESS
+    and within 1e-7 of the shooting t_f (2 x 48 LGL points resolve the transfer: measured
+    3e-9 at e = 0.3)."""
+    members = [min_time(0.3), min_time(0.1)]
+    out = refine_batch(stack(members), ladder=lpm.MeshLadder(((2, 48),), scheme="LGL"))
+    assert np.all(out["status"] == Status.SUCCESS)
+    for i, problem in enumerate(members):
+        shot = float(min_time_shooting(problem, np.linspace(0.0, 1.0, 201)).duration)
+        assert abs(out["cost"][i] - shot) < 1e-7 * shot
 
 
 def test_bad_requests():

@@ -16,8 +16,9 @@ without a grid):
                    switches move with the mesh, so the default ladder repeats each segment
                    count); each rung runs the energy-to-fuel homotopy afresh (`FuelPlan`)
   minimum time     method "condensed" (every model): uniform meshes; method
-                   "augmented-lagrangian" (HCW): split by the error, each rung from its own
-                   minimum-time guess (`MinTimePlan`)
+                   "augmented-lagrangian" (HCW, and LGL ladders on the linear and two-body
+                   models): split by the error, each rung from its own minimum-time guess
+                   (`MinTimePlan`)
   LQR              the Riccati sweep's uniform steps doubled, 512 to 4096 (rungs (steps, 1);
                    no breaks, no warm start: `LQRPlan`)
 """
@@ -163,12 +164,13 @@ class FuelPlan:
 
 @dataclass(frozen=True)
 class MinTimePlan:
-    """Minimum-time transfers: method "condensed" on uniform `SegmentedMesh` rungs, or on HCW
-    method "augmented-lagrangian" on the ladder's meshes split by the error; no warm start (each
-    rung's own minimum-time guess carries the duration and the primer)."""
+    """Minimum-time transfers: method "condensed" on uniform `SegmentedMesh` rungs, or method
+    "augmented-lagrangian" (HCW, and LGL ladders) on the ladder's meshes split by the error; no
+    warm start (each rung's own minimum-time guess carries the duration and the primer)."""
 
     ladder: MeshLadder
     options: CondensedOptions | ALOptions
+    clock: str = "hcw"          # the augmented Lagrangian's (`min_time.run`), from the batch
     warm_start = False
 
     @property
@@ -193,7 +195,7 @@ class MinTimePlan:
     def solve(self, problem, breaks, prev, shape, previous, options):
         cls, grid = MESHES[self.ladder.scheme]
         mesh = (SegmentedMesh if self.condensed else cls)(breaks, grid(shape[1]))
-        return min_time.run(problem, mesh, self.method, options)
+        return min_time.run(problem, mesh, self.method, options, self.clock)
 
     def carry(self, solution, breaks, tolerance):
         return dict(breaks=breaks, error=refinement_error(solution.stats, tolerance))
@@ -248,13 +250,14 @@ def refinement_plan(problems, ladder=None, options=None):
         return FuelPlan(ladder, options)
     if isinstance(problems, MinimumTimeTransfer):
         if options is None:
-            options = ALOptions() if min_time._hcw(problems) else CondensedOptions()
+            options = min_time.default_options(min_time.refine_method(problems, ladder), ladder)
         if ladder is None:
             ladder = (min_time.LADDER if isinstance(options, ALOptions)
                       else min_time_condensed.LADDER)
         if isinstance(options, CondensedOptions):
             fuel_optimal.check_ladder(ladder)
-        return MinTimePlan(ladder, options)
+        return MinTimePlan(ladder, options,
+                           "hcw" if min_time.hcw_clock(problems) else "anomaly")
     if isinstance(problems, LQRTransfer):
         if options is not None:
             raise ValueError(f"the Riccati sweep takes no options, got {options!r:.60}")

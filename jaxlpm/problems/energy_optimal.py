@@ -181,7 +181,9 @@ def check_problem(problem: EnergyOptimalTransfer) -> None:
     problem.check()
 
 
-def _th_dynamics(s, x, u, data, p):
+def th_dynamics(s, x, u, data, p):
+    """d/ds of the linear model's scaled Tschauner-Hempel state at true anomaly s, control u
+    in units of L k^4 (m/s^2; k^2 = sqrt(mu / p^3), Mei 2010 eq. 1, 11)."""
     return tschauner_hempel_drift(s, x, p["e"]) + jnp.concatenate(
         [jnp.zeros(3), p["axes"] * u / (1.0 + p["e"] * jnp.cos(s)) ** 3])
 
@@ -190,7 +192,9 @@ def _th_cost(s, x, u, data, p):
     return 0.5 * jnp.dot(u, u) / (1.0 + p["e"] * jnp.cos(s)) ** 2
 
 
-def _lvlh_dynamics(s, x, u, data, p):
+def lvlh_dynamics(s, x, u, data, p):
+    """d/ds of the scaled LVLH state [r / L, v / (L n)] on the two-body or J2 model, control u
+    in units of L n^2; data = (chief position (m), `lvlh_frame_motion`, n dt/ds)."""
     r_chief, frame, q = data
     L, n = p["length"], p["n"]
     x_si = x * jnp.concatenate([jnp.full(3, L), jnp.full(3, L * n)])
@@ -244,20 +248,27 @@ def transfer_chief(problem: EnergyOptimalTransfer, grid):
 
 def model_state(problem: EnergyOptimalTransfer, x_lvlh, s):
     """LVLH state (m, m/s) at anomaly s -> the solver's scaled state."""
-    o, L = problem.orbit, length_scale(problem)
-    if problem.model == "linear":
-        return lvlh_to_th(x_lvlh, s, o.e, o.k2) / L
-    return x_lvlh / jnp.concatenate([jnp.full(3, L), jnp.full(3, L * o.mean_motion)])
+    o = problem.orbit
+    return scaled_state(problem.model, x_lvlh, s, o.e, o.k2, o.mean_motion,
+                        length_scale(problem))
 
 
-def _unscaled_state(model, x, s, e, k2, n, length):
+def scaled_state(model, x_lvlh, s, e, k2, n, length):
+    """`model_state` in numbers: the Tschauner-Hempel state over `length` on the linear
+    model, [r / length, v / (length n)] on the others."""
+    if model == "linear":
+        return lvlh_to_th(x_lvlh, s, e, k2) / length
+    return x_lvlh / jnp.concatenate([jnp.full(3, length), jnp.full(3, length * n)])
+
+
+def unscaled_state(model, x, s, e, k2, n, length):
     """The solver's state x at anomaly s -> LVLH (m, m/s); `lvlh_state` in numbers."""
     if model == "linear":
         return th_to_lvlh(x * length, s, e, k2)
     return x * jnp.concatenate([jnp.full(3, length), jnp.full(3, length * n)])
 
 
-def _control_unit(model, k2, n, length):
+def control_unit(model, k2, n, length):
     """u (m/s^2) per unit of the solver's control; `control_scale` in numbers."""
     return length * (k2**2 if model == "linear" else n**2)
 
@@ -265,14 +276,14 @@ def _control_unit(model, k2, n, length):
 def lvlh_state(problem: EnergyOptimalTransfer, x, s):
     """Inverse of `model_state`."""
     o = problem.orbit
-    return _unscaled_state(problem.model, x, s, o.e, o.k2, o.mean_motion,
+    return unscaled_state(problem.model, x, s, o.e, o.k2, o.mean_motion,
                            length_scale(problem))
 
 
 def control_scale(problem: EnergyOptimalTransfer):
     """u (m/s^2) = control_scale * the solver's control."""
     o = problem.orbit
-    return _control_unit(problem.model, o.k2, o.mean_motion, length_scale(problem))
+    return control_unit(problem.model, o.k2, o.mean_motion, length_scale(problem))
 
 
 def cost_scale(problem: EnergyOptimalTransfer):
@@ -298,7 +309,7 @@ def transfer_ocp(problem: EnergyOptimalTransfer, grid, s_f=None, chief=None):
     axes = jnp.asarray(problem.thrust_axes, x0.dtype)
     params = {"x0": x0, "xf": xf, "e": o.e, "axes": axes}
     if problem.model == "linear":
-        dynamics, cost, data = _th_dynamics, _th_cost, None
+        dynamics, cost, data = th_dynamics, _th_cost, None
     else:
         states = chief.state[collocated_rows(grid)]
         q = o.mean_motion / jax.vmap(anomaly_rate)(states)
@@ -309,7 +320,7 @@ def transfer_ocp(problem: EnergyOptimalTransfer, grid, s_f=None, chief=None):
         data = (states[:, :3], frames, q)
         params.update(length=length_scale(problem), n=o.mean_motion, mu=o.mu, j2=j2,
                       r_eq=problem.r_eq)
-        dynamics, cost = _lvlh_dynamics, _lvlh_cost
+        dynamics, cost = lvlh_dynamics, _lvlh_cost
     ocp = OptimalControlProblem(
         n_x=6, n_u=3, dynamics=dynamics, running_cost=cost, boundary=_fixed_ends,
         s0=o.f0 + 0.0 * s_f, sf=s_f, params=params, node_data=data)
@@ -337,8 +348,8 @@ class SafetyPath:
     model: str
 
     def __call__(self, s, x, u, data, p):
-        x_si = _unscaled_state(self.model, x, s, p["e"], p["k2"], p["n"], p["length"])
-        u_si = p["axes"] * u * _control_unit(self.model, p["k2"], p["n"], p["length"])
+        x_si = unscaled_state(self.model, x, s, p["e"], p["k2"], p["n"], p["length"])
+        u_si = p["axes"] * u * control_unit(self.model, p["k2"], p["n"], p["length"])
         point = data[1]
         return safety.path_values(p["constraints"], x_si, u_si, point["t"], point["pad"],
                                   point["drift"], p["length"])

@@ -35,13 +35,18 @@ import numpy as np
 
 from .._validation import Checked, Rule, array_module, coerce_sequences
 from ..constants import J2_EARTH, R_EARTH
-from ..dynamics import hcw_drift
-from ..orbits import KeplerOrbit
-from .energy_optimal import MODELS, perigee_above_surface
+from ..dynamics import hcw_drift, lvlh_frame_motion
+from ..dynamics.chief import anomaly_rate, kepler_chief
+from ..orbits import (KeplerOrbit, elements_to_state, time_from_true_anomaly,
+                      true_anomaly_from_time)
+from .energy_optimal import (MODELS, EnergyOptimalTransfer, control_unit, lvlh_dynamics,
+                             lvlh_state, model_state, perigee_above_surface, scaled_state,
+                             th_dynamics)
+from .energy_optimal import collocation_accuracy as energy_accuracy
 from .scaling import length_scale, state_scale
 from ..nlp.accuracy import check_flight, check_mesh, collocation_defects, unit_direction
 from ..nlp.ocp import OptimalControlProblem
-from ..nlp.transcription import collocation_s, costates, state_s, unpack
+from ..nlp.transcription import collocated_rows, collocation_s, costates, state_s, unpack
 from ..solution import Collocated, Solution, zero_invalid
 from ..solution.accuracy import accuracy_stats
 
@@ -177,6 +182,66 @@ def min_time_ocp(problem: MinimumTimeTransfer, duration_guess) -> OptimalControl
         final_bounds=s0 + n * problem.bounds.astype(s0.dtype))
 
 
+def _th_thrust(s, x, u, data, p):
+    return th_dynamics(s, x, p["accel"] * u, data, p)
+
+
+def _two_body_thrust(s, x, u, data, p):
+    r, v = elements_to_state(p["orbit"], s)
+    chief = jnp.concatenate([r, v])
+    frame = lvlh_frame_motion(chief, p["mu"], None, p["r_eq"])
+    return lvlh_dynamics(s, x, p["accel"] * u, (r, frame, p["n"] / anomaly_rate(chief)), p)
+
+
+def _mean_anomaly_swept(x0, xf, sf, p):
+    return p["n"] * time_from_true_anomaly(p["orbit"], sf)
+
+
+@dataclass(frozen=True)
+class _EndsOnAnomaly:
+    """The boundary conditions on the anomaly clock: the target's scaled state depends on the
+    free final anomaly (the Tschauner-Hempel map does; hashable, one compiled solver per
+    model)."""
+
+    model: str
+
+    def __call__(self, x0, xf, sf, p):
+        target = scaled_state(self.model, p["xf_lvlh"], sf, p["e"], p["k2"], p["n"],
+                              p["length"])
+        return jnp.concatenate([x0 - p["x0"], xf - target])
+
+
+def anomaly_of_time(orbit: KeplerOrbit, t):
+    """The true anomaly (rad, continuous) t seconds after the epoch; inf where t is."""
+    finite = jnp.isfinite(t)
+    return jnp.where(finite, true_anomaly_from_time(orbit, jnp.where(finite, t, 0.0)), jnp.inf)
+
+
+def anomaly_min_time_ocp(problem: MinimumTimeTransfer, anomaly_guess) -> OptimalControlProblem:
+    """The transfer on the chief's true anomaly s (any e; models "linear" and "two-body"), the
+    clock of the energy-optimal transfer and its scaled states (`energy_optimal.transfer_ocp`:
+    Tschauner-Hempel on the linear model, [r / L, v / (L n)] on two-body), driven by a~ u_hat
+    (a~ = (T / m) over the model's control unit), the chief's conic evaluated at every point
+    (a free final anomaly moves the points), cost phi = n t_f = M(s_f) - M(f0) (the mean
+    anomaly swept, Kepler's equation), the final anomaly bounded by those at t_min and t_max,
+    |u_hat| = 1 at every collocation point. The initial final anomaly is s0 + anomaly_guess."""
+    o = problem.orbit
+    L = length_scale(problem)
+    s0 = o.f0 + 0.0 * L
+    model = problem.model
+    params = {"x0": model_state(problem, problem.x0, s0), "xf_lvlh": problem.xf, "s0": s0,
+              "accel": problem.acceleration / control_unit(model, o.k2, o.mean_motion, L),
+              "e": o.e, "k2": o.k2, "n": o.mean_motion, "length": L,
+              "axes": jnp.ones(3, s0.dtype), "orbit": o, "mu": o.mu, "j2": None,
+              "r_eq": problem.r_eq}
+    return OptimalControlProblem(
+        n_x=6, n_u=3, dynamics=_th_thrust if model == "linear" else _two_body_thrust,
+        running_cost=_no_running_cost, boundary=_EndsOnAnomaly(model), s0=s0,
+        sf=s0 + anomaly_guess, params=params, terminal_cost=_mean_anomaly_swept,
+        free_final=True, path_equality=_unit_direction,
+        final_bounds=anomaly_of_time(o, problem.bounds.astype(s0.dtype)))
+
+
 def energy_ocp(ocp: OptimalControlProblem, duration_nd, weights) -> OptimalControlProblem:
     """The same dynamics and ends with cost 1/2 int w |u_hat|^2 ds (w: `weights` (n,) at the
     collocation points) over a fixed duration n t and no path constraints: a QP whose solution
@@ -238,14 +303,59 @@ def to_solution(problem: MinimumTimeTransfer, ocp, grid, result, status, valid, 
     return Solution(
         problem=problem, status=status, cost=duration, duration=duration,
         trajectory=trajectory,
-        stats=keep(dict(
-            node_s=node_s, state_s=rows_s, node_directions=U, costates_scaled=lam,
-            multipliers=result.multipliers, path_multipliers=result.path_multipliers,
-            constraint_residual=result.constraint_residual,
-            path_residual=result.path_residual,
-            stationarity_residual=result.stationarity_residual,
-            complementarity=result.complementarity, outer_iterations=result.outer_iterations,
-            inner_iterations=result.inner_iterations, history=result.history,
-            **collocation_accuracy(problem, ocp, grid, X, U, sf)))
+        stats=keep(dict(node_s=node_s, state_s=rows_s, node_directions=U, costates_scaled=lam,
+                        **_al_stats(result), **collocation_accuracy(problem, ocp, grid, X, U, sf)))
+        | dict(duration_lower_bound=t_lb),
+        method="augmented-lagrangian")
+
+
+def _al_stats(result):
+    """The augmented Lagrangian's own numbers (an `ALResult`), for the solution's stats."""
+    return dict(multipliers=result.multipliers, path_multipliers=result.path_multipliers,
+                constraint_residual=result.constraint_residual,
+                path_residual=result.path_residual,
+                stationarity_residual=result.stationarity_residual,
+                complementarity=result.complementarity, outer_iterations=result.outer_iterations,
+                inner_iterations=result.inner_iterations, history=result.history)
+
+
+def anomaly_solution(problem: MinimumTimeTransfer, ocp, grid, result, status, valid, t_lb):
+    """`to_solution` of `anomaly_min_time_ocp`: the duration t_f = t(s_f) by Kepler's equation,
+    the trajectory on the true-anomaly clock (the chief's conic at the points), the states in
+    LVLH (m, m/s), costates dJ/dx = (dx~/dx)^T (dphi/dx~) / n (J = t_f = phi / n, x~ =
+    `energy_optimal.model_state`(x)), the error estimate that of the energy-optimal transfer of
+    duration t_f flown with the renormalised interpolated direction
+    (`energy_optimal.collocation_accuracy`); stats as `to_solution`'s, duration_lower_bound
+    (s) that of HCW where the chief is circular on the linear model, else 0."""
+    def keep(tree):
+        return zero_invalid(valid, tree)
+
+    o = problem.orbit
+    X, U, sf = unpack(result.z, ocp, grid)
+    rows_s, node_s = state_s(ocp, grid, sf), collocation_s(ocp, grid, sf)
+    duration = time_from_true_anomaly(o, sf)
+    chief = kepler_chief(o, rows_s)
+    states = jax.vmap(lambda x, s: lvlh_state(problem, x, s))(X, rows_s)
+    lam = costates(result.z, result.multipliers, ocp, grid)
+    node_costates = jax.vmap(
+        lambda p, s: jax.vjp(lambda x: model_state(problem, x, s), jnp.zeros(6))[1](p)[0])(
+            lam, node_s) / o.mean_motion
+    rows = collocated_rows(grid)
+    trajectory = Collocated(
+        grid=grid, times=chief.t[rows],
+        dt_dtau=0.5 * (sf - ocp.s0) / jax.vmap(anomaly_rate)(chief.state[rows]),
+        node_controls=keep(problem.acceleration * U), node_costates=keep(node_costates),
+        state_times=keep(chief.t), node_states=keep(states), polynomial=keep(states),
+        s0=ocp.s0, sf=sf, orbit=o, magnitude=problem.acceleration, clock="true-anomaly")
+    twin = EnergyOptimalTransfer(o, problem.x0, problem.xf, duration, model=problem.model,
+                                 j2=problem.j2, r_eq=problem.r_eq)
+    a = ocp.params["accel"]
+    accuracy = energy_accuracy(twin, grid, X, a * U, s_f=sf,
+                               control_map=lambda u: a * unit_direction(u))
+    return Solution(
+        problem=problem, status=status, cost=keep(duration), duration=keep(duration),
+        trajectory=trajectory,
+        stats=keep(dict(node_s=node_s, state_s=rows_s, node_directions=U, costates_scaled=lam,
+                        **_al_stats(result), **accuracy))
         | dict(duration_lower_bound=t_lb),
         method="augmented-lagrangian")

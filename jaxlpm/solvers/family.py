@@ -26,6 +26,9 @@ class FamilySolver:
                   `jaxlpm.solution.Judge`)
     refine_method the method refinement uses: a name, or (problem, ladder or None) -> name
     ladders       refine also takes a `MeshLadder` (the grid of `solve(problem, ladder)`)
+    default_options  optional (method, grid or ladder, None for the default ladder) -> the
+                  options of a solve that passes none (default: the options class's
+                  defaults)
     """
 
     problem: type
@@ -37,6 +40,7 @@ class FamilySolver:
     refine: Callable | None = None
     refine_method: str | Callable | None = None
     ladders: bool = False
+    default_options: Callable | None = None
 
     def solve(self, problem, grid, method, options, judge):
         """The solution of `problem` with `judge` (INACCURATE where the error estimate
@@ -70,8 +74,10 @@ class FamilySolver:
         if kind is None and options is not None:
             raise ValueError(f"method {method!r} takes no options, got "
                              f"{type(options).__name__}")
+        if kind is not None and options is None:
+            options = (kind() if self.default_options is None
+                       else self.default_options(method, ladder if refining else grid))
         if kind is not None:
-            options = kind() if options is None else options
             if not isinstance(options, kind):
                 raise ValueError(f"options for method {method!r} must be a {kind.__name__}, "
                                  f"got {type(options).__name__}")

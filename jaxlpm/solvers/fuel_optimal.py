@@ -77,7 +77,7 @@ BURNING = 1e-9             # a collocation point fires where its throttle exceed
 
 
 def _input_gain(f, e):
-    """B(f) of the solver's Tschauner-Hempel state: [0; I / rho^3] (`_th_dynamics`)."""
+    """B(f) of the solver's Tschauner-Hempel state: [0; I / rho^3] (`energy_optimal.th_dynamics`)."""
     return jnp.concatenate([jnp.zeros((3, 3)), jnp.eye(3) / (1.0 + e * jnp.cos(f)) ** 3])
 
 
@@ -312,8 +312,9 @@ def check_ladder(ladder: MeshLadder, condensed: bool = True) -> None:
     if ladder.scheme not in schemes:
         raise ValueError(f"the homotopy and minimum-time method 'condensed' refine on LGR or "
                          f"LG segments (their states are eliminated segment by segment, and an "
-                         f"LGL segment collocates both its ends; a fuel-optimal transfer "
-                         f"refines on LGL segments by method 'augmented-lagrangian'), got a "
+                         f"LGL segment collocates both its ends; fuel-optimal and minimum-"
+                         f"time transfers refine on LGL segments by method "
+                         f"'augmented-lagrangian'), got a "
                          f"{ladder.scheme} ladder")
     if min(n for _, n in ladder.rungs) < MIN_POINTS:
         raise ValueError(f"the ladder's segments need at least {MIN_POINTS} points, got "

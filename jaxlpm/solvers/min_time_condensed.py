@@ -168,7 +168,7 @@ def _duration(problem, mesh, ref, T0, hi, options):
     return jnp.exp(u), p, dg, (jnp.abs(g) <= 1e-9) & (jnp.abs(step) <= options.duration_tol)
 
 
-def _start(problem):
+def rest_to_rest(problem):
     """2 sqrt(|dr| / a) + |dv| / a (s): the rest-to-rest bang-bang time plus the velocity
     change at full thrust, a first duration."""
     d = problem.xf - problem.x0
@@ -189,7 +189,7 @@ def _solve(problem, mesh, options):
         X = nlp.cond.states(nlp.x0, U.reshape(mesh.n_segments, mesh.grid.n, 3))
         return T, p, dg, ok, nlp.cond.collocation_rows(X)
 
-    T, p, dg, ok, X = run_at(ref, _start(problem))
+    T, p, dg, ok, X = run_at(ref, rest_to_rest(problem))
     change = jnp.max(jnp.abs(X - ref))
     if problem.model == "linear":
         return T, p, dg, ref, ok, jnp.asarray(1), jnp.zeros_like(change)
@@ -248,7 +248,8 @@ LADDER = MeshLadder(tuple((k, DEFAULT_POINTS) for k in (16, 32, 64, 128)))
 
 
 def check_grid(mesh, method):
-    check_segmented(mesh, "method 'condensed'")
+    check_segmented(mesh, "method 'condensed'", hint=": on LGL segments use method "
+                    "'augmented-lagrangian' (the linear and two-body models)")
 
 
 def run(problem, mesh, method, options: CondensedOptions) -> Solution:
@@ -319,7 +320,7 @@ def _shooting(problem, breaks, nodes, weights, options):
 
     u, step, _ = jax.lax.while_loop(
         lambda s: (jnp.abs(s[1]) > options.duration_tol) & (s[2] < options.duration_iterations),
-        body, (jnp.log(_start(problem)), jnp.asarray(jnp.inf), 0))
+        body, (jnp.log(rest_to_rest(problem)), jnp.asarray(jnp.inf), 0))
     T = jnp.exp(u)
     p = minimiser(T)
     E, _, d = at(T)
