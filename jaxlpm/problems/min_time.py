@@ -1,18 +1,23 @@
-"""Minimum-time relative transfer with constant thrust magnitude and free direction (HCW).
+"""Minimum-time relative transfer with constant thrust magnitude and free direction.
 
     minimise    t_f
-    subject to  x_dd = A_HCW x + (T / m) u_hat,   |u_hat| = 1 (the engine always fires at
+    subject to  x_dd = f(x) + (T / m) u_hat,   |u_hat| = 1 (the engine always fires at
                 constant thrust, free direction; Duan & Dong 2011),
                 x(0) = x0, x(t_f) = xf,  t_min <= t_f <= t_max
     LVLH frame (x radial out, y along-track, z orbit normal), m, m/s; thrust T in N, mass m in
     kg held constant (no mass flow: the paper gives no Isp).
 
-The chief is circular (HCW, mean motion n). As an `OptimalControlProblem`: independent
-variable s = f0 + n t (the chief's true anomaly), state [r / L, v / (L n)] with
-L = max(|r0|, |rf|, 1 m), control u_hat, acceleration a~ = (T / m) / (L n^2), cost
-phi = s_f - s0 = n t_f, free final s with bounds n [t_min, t_max]; the unit direction is the
-path equality |u_hat|^2 - 1 = 0 at every collocation point. (A throttleable engine,
-|u_hat| <= 1, has the same minimum time: the minimum-time engine always fires at full thrust.)
+f: HCW (a circular chief, mean motion n), Tschauner-Hempel (the linear model of an eccentric
+one), two-body or J2 relative motion (`jaxlpm.problems.energy_optimal`). On HCW, as an
+`OptimalControlProblem` (`min_time_ocp`): independent variable s = f0 + n t (the chief's true
+anomaly), state [r / L, v / (L n)] with L = max(|r0|, |rf|, 1 m), control u_hat, acceleration
+a~ = (T / m) / (L n^2), cost phi = s_f - s0 = n t_f, free final s with bounds n [t_min, t_max];
+the unit direction is the path equality |u_hat|^2 - 1 = 0 at every collocation point. (A
+throttleable engine, |u_hat| <= 1, has the same minimum time: the minimum-time engine always
+fires at full thrust.) On an eccentric chief (linear model) and on the two-body model,
+`anomaly_min_time_ocp`: the chief's true anomaly as s, its final value free, cost n t_f =
+M(s_f) - M(f0) (Kepler's equation). The J2 model is solved by method "condensed"
+(`jaxlpm.solvers.min_time_condensed`).
 
 Lower bound (`duration_lower_bound`): two quantities of the HCW motion change only under thrust,
 the centre of the in-plane ellipse x_c = 4 x + 2 y_d / n (the semi-major-axis offset) and the
@@ -56,9 +61,10 @@ from ..solution.accuracy import accuracy_stats
 class MinimumTimeTransfer(Checked):
     """Minimise the transfer time t_f (s) from x0 to xf at constant thrust (module docstring).
 
-    orbit            the chief's `KeplerOrbit` (SI, rad); t = 0 at its epoch. The method
-                     "augmented-lagrangian" takes a circular one (e = 0, HCW); "condensed"
-                     any (`jaxlpm.solvers.min_time_condensed`)
+    orbit            the chief's `KeplerOrbit` (SI, rad); t = 0 at its epoch; any e < 1
+                     (method "augmented-lagrangian": HCW at e = 0, else on the true
+                     anomaly, models "linear" and "two-body"; "condensed": every model,
+                     `jaxlpm.solvers.min_time_condensed`)
     x0, xf           LVLH states [x, y, z, vx, vy, vz] (m, m/s; x radial outward, y
                      along-track, z orbit normal)
     thrust, mass     constant thrust magnitude (N) and mass (kg, held constant)

@@ -10,6 +10,9 @@ in closed form, thrust acceleration a~) the unit control reaches x_f in a durati
 (F_S: the support function of the states the control adds), so the minimum time solves
 a~ F*(S) = 1, F*(S) = min_{p . d = 1} F_S(p), with the primer direction u_i = v_i / |v_i| at the
 minimiser p*. F_S is convex in p: Newton from the energy-optimal p (the Gramian's W^-1 d).
+On the chief's true anomaly (eccentric chiefs, two-body: `anomaly_min_time_ocp`) the same with
+the Tschauner-Hempel system, Phi(f_f, f_i) the Yamanaka-Ankersen STM and B(f) = [0; I / (1 +
+e cos f)^3] (`tschauner_hempel_linear_flow`; `LinearFlow` holds either system).
 S: Newton on log(a~ F*) against log S (exact for F* ~ S^q: q = 2 for a short rest-to-rest
 transfer, q ~ 1 for a drift-dominated low-thrust one of many orbits), dF*/dS at fixed p* (the
 envelope theorem), from max(t_lb, 2 sqrt(|dr| / a) + |dv| / a) (`duration_lower_bound`, and the
