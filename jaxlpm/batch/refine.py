@@ -272,7 +272,8 @@ class Refinement:
     """How a batch refines (`refine_batch`, and a sweep's "refine" group: `jaxlpm.batch.sweep`):
     ladder (None: the family's, `refinement_plan`), tolerance (`jaxlpm.Tolerance`, SI) and
     gradients (also the implicit gradient of the cost with respect to every leaf of the
-    problem, on each member's final mesh: `gradient_record`; every family but minimum time)."""
+    problem, on each member's final mesh: `gradient_record`; every family but minimum time by
+    method "condensed")."""
 
     ladder: MeshLadder | None = None
     tolerance: Tolerance = DEFAULT_TOLERANCE
@@ -383,9 +384,10 @@ def _member_rows(problems, n):
 
 def check_refinement(plan, refinement: Refinement):
     """ValueError for a refinement the plan cannot do."""
-    if refinement.gradients and isinstance(plan, MinTimePlan):
-        raise ValueError("gradients=True: a minimum-time solve is not differentiated (its "
-                         "costates give dt_f/dx0 and dt_f/dxf)")
+    if refinement.gradients and isinstance(plan, MinTimePlan) and plan.condensed:
+        raise ValueError("gradients=True: a minimum-time solve by method 'condensed' is not "
+                         "differentiated (its costates give dt_f/dx0 and dt_f/dxf; the "
+                         "augmented Lagrangian, on HCW and on LGL ladders, is)")
 
 
 def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAULT_TOLERANCE,
@@ -404,8 +406,8 @@ def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAUL
     solution (the default: `accuracy_record`; it may fly the solution, `jaxlpm.verify.fly`).
     gradients: also the implicit gradient of the cost with respect to every leaf of the problem
     (`gradient_record`: dcost_dx0, dcost_dduration, dcost_dorbit.e, ...), taken on each member's
-    final mesh (its breaks held fixed); energy-optimal, fuel-optimal and LQR (a minimum-time
-    solve is not differentiated). Every rung runs on all members (one compiled function per rung
+    final mesh (its breaks held fixed); energy-optimal, fuel-optimal, LQR, and minimum time by
+    the augmented Lagrangian (method "condensed" is not differentiated). Every rung runs on all members (one compiled function per rung
     for the batch's size), the members already done skipped by a `lax.cond` (`masked`). Returns
     the records as NumPy arrays (members first) plus "rung" (the rung each member ended on) and
     "segments" (its mesh's segment count)."""
