@@ -95,4 +95,7 @@ def gradient():
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--gradient", action="store_true", help="the gradient check alone")
-    gradient() if parser.parse_args().gradient else main()
+    if parser.parse_args().gradient:
+        gradient()
+    else:
+        main()

@@ -407,8 +407,9 @@ def refine_batch(problems, *, ladder: MeshLadder | None = None, tolerance=DEFAUL
     gradients: also the implicit gradient of the cost with respect to every leaf of the problem
     (`gradient_record`: dcost_dx0, dcost_dduration, dcost_dorbit.e, ...), taken on each member's
     final mesh (its breaks held fixed); energy-optimal, fuel-optimal, LQR, and minimum time by
-    the augmented Lagrangian (method "condensed" is not differentiated). Every rung runs on all members (one compiled function per rung
-    for the batch's size), the members already done skipped by a `lax.cond` (`masked`). Returns
+    the augmented Lagrangian (method "condensed" is not differentiated). Every rung runs on all
+    members (one compiled function per rung for the batch's size), the members already done
+    skipped by a `lax.cond` (`masked`). Returns
     the records as NumPy arrays (members first) plus "rung" (the rung each member ended on) and
     "segments" (its mesh's segment count)."""
     refinement = Refinement(ladder, tolerance, gradients)

@@ -261,14 +261,14 @@ def scaled_state(model, x_lvlh, s, e, k2, n, length):
     return x_lvlh / jnp.concatenate([jnp.full(3, length), jnp.full(3, length * n)])
 
 
-def unscaled_state(model, x, s, e, k2, n, length):
+def _unscaled_state(model, x, s, e, k2, n, length):
     """The solver's state x at anomaly s -> LVLH (m, m/s); `lvlh_state` in numbers."""
     if model == "linear":
         return th_to_lvlh(x * length, s, e, k2)
     return x * jnp.concatenate([jnp.full(3, length), jnp.full(3, length * n)])
 
 
-def control_unit(model, k2, n, length):
+def _control_unit(model, k2, n, length):
     """u (m/s^2) per unit of the solver's control; `control_scale` in numbers."""
     return length * (k2**2 if model == "linear" else n**2)
 
@@ -276,14 +276,14 @@ def control_unit(model, k2, n, length):
 def lvlh_state(problem: EnergyOptimalTransfer, x, s):
     """Inverse of `model_state`."""
     o = problem.orbit
-    return unscaled_state(problem.model, x, s, o.e, o.k2, o.mean_motion,
+    return _unscaled_state(problem.model, x, s, o.e, o.k2, o.mean_motion,
                            length_scale(problem))
 
 
 def control_scale(problem: EnergyOptimalTransfer):
     """u (m/s^2) = control_scale * the solver's control."""
     o = problem.orbit
-    return control_unit(problem.model, o.k2, o.mean_motion, length_scale(problem))
+    return _control_unit(problem.model, o.k2, o.mean_motion, length_scale(problem))
 
 
 def cost_scale(problem: EnergyOptimalTransfer):
@@ -348,8 +348,8 @@ class SafetyPath:
     model: str
 
     def __call__(self, s, x, u, data, p):
-        x_si = unscaled_state(self.model, x, s, p["e"], p["k2"], p["n"], p["length"])
-        u_si = p["axes"] * u * control_unit(self.model, p["k2"], p["n"], p["length"])
+        x_si = _unscaled_state(self.model, x, s, p["e"], p["k2"], p["n"], p["length"])
+        u_si = p["axes"] * u * _control_unit(self.model, p["k2"], p["n"], p["length"])
         point = data[1]
         return safety.path_values(p["constraints"], x_si, u_si, point["t"], point["pad"],
                                   point["drift"], p["length"])

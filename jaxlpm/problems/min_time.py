@@ -44,7 +44,7 @@ from ..dynamics import hcw_drift, lvlh_frame_motion
 from ..dynamics.chief import anomaly_rate, kepler_chief
 from ..orbits import (KeplerOrbit, elements_to_state, time_from_true_anomaly,
                       true_anomaly_from_time)
-from .energy_optimal import (MODELS, EnergyOptimalTransfer, control_unit, lvlh_dynamics,
+from .energy_optimal import (MODELS, EnergyOptimalTransfer, control_scale, lvlh_dynamics,
                              lvlh_state, model_state, perigee_above_surface, scaled_state,
                              th_dynamics)
 from .energy_optimal import collocation_accuracy as energy_accuracy
@@ -236,7 +236,7 @@ def anomaly_min_time_ocp(problem: MinimumTimeTransfer, anomaly_guess) -> Optimal
     s0 = o.f0 + 0.0 * L
     model = problem.model
     params = {"x0": model_state(problem, problem.x0, s0), "xf_lvlh": problem.xf, "s0": s0,
-              "accel": problem.acceleration / control_unit(model, o.k2, o.mean_motion, L),
+              "accel": problem.acceleration / control_scale(problem),
               "e": o.e, "k2": o.k2, "n": o.mean_motion, "length": L,
               "axes": jnp.ones(3, s0.dtype), "orbit": o, "mu": o.mu, "j2": None,
               "r_eq": problem.r_eq}

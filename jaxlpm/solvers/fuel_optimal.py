@@ -77,7 +77,8 @@ BURNING = 1e-9             # a collocation point fires where its throttle exceed
 
 
 def _input_gain(f, e):
-    """B(f) of the solver's Tschauner-Hempel state: [0; I / rho^3] (`energy_optimal.th_dynamics`)."""
+    """B(f) of the solver's Tschauner-Hempel state: [0; I / rho^3]
+    (`energy_optimal.th_dynamics`)."""
     return jnp.concatenate([jnp.zeros((3, 3)), jnp.eye(3) / (1.0 + e * jnp.cos(f)) ** 3])
 
 

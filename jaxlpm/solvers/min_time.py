@@ -48,10 +48,11 @@ from ..collocation import Grid, lg
 from ..collocation.segments import CONDENSED_SCHEMES, Mesh, SegmentedMesh, tau_mesh
 from ..linalg import cholesky_solve
 from ..dynamics import hcw_flow, yamanaka_ankersen_stm
-from ..orbits import lvlh_to_th, time_from_true_anomaly
+from ..orbits import time_from_true_anomaly
 from ..problems.min_time import (MinimumTimeTransfer, anomaly_min_time_ocp, anomaly_of_time,
                                  anomaly_solution, duration_lower_bound, energy_ocp,
                                  min_time_ocp, to_solution)
+from ..problems.energy_optimal import scaled_state
 from ..problems.scaling import length_scale
 from ..nlp.ocp import PathPenalty
 from ..nlp.reachable import support, support_minimiser
@@ -108,9 +109,11 @@ def tschauner_hempel_linear_flow(problem: MinimumTimeTransfer) -> LinearFlow:
         return jax.vmap(lambda f: stm(f0 + S, f)[:, 3:] / (1.0 + o.e * jnp.cos(f)) ** 3)(
             f0 + 0.5 * S * (grid.points + 1.0))
 
+    def th_state(x, f):
+        return scaled_state("linear", x, f, o.e, o.k2, o.mean_motion, L)
+
     def target(S):
-        x0 = lvlh_to_th(problem.x0, f0, o.e, o.k2) / L
-        return lvlh_to_th(problem.xf, f0 + S, o.e, o.k2) / L - stm(f0 + S, f0) @ x0
+        return th_state(problem.xf, f0 + S) - stm(f0 + S, f0) @ th_state(problem.x0, f0)
 
     return LinearFlow(basis, target, problem.acceleration / (L * o.k2**2))
 
@@ -217,13 +220,12 @@ def _on_clock(clock):
             else (anomaly_min_time_ocp, anomaly_solution))
 
 
-def _anomaly_start(problem):
-    """(the lower bound t_lb (s): HCW's where the chief is circular on the linear model, else
-    0; the guess's linear flow, first anomaly span and floor on it)."""
-    o = problem.orbit
-    t_lb = jnp.where(problem.is_hcw(), duration_lower_bound(problem), 0.0)
-    span = anomaly_of_time(o, t_lb) - o.f0
-    return t_lb, tschauner_hempel_linear_flow(problem), o.mean_motion * rest_to_rest(problem), span
+def _lower_bound(problem, clock):
+    """t_lb (s): `duration_lower_bound` on HCW; on the anomaly clock the same where the chief
+    is circular on the linear model, else 0 (no bound)."""
+    if clock == "hcw":
+        return duration_lower_bound(problem)
+    return jnp.where(problem.is_hcw(), duration_lower_bound(problem), 0.0)
 
 
 def min_time_setup(problem, grid, options: ALOptions, clock="hcw"):
@@ -234,10 +236,7 @@ def min_time_setup(problem, grid, options: ALOptions, clock="hcw"):
     (HCW transfers alone: the others are invalid) or "anomaly" (`_on_clock`)."""
     valid = problem.validity() & (problem.is_hcw() if clock == "hcw" else True)
     requested = problem.sanitized(valid)
-    if clock == "hcw":
-        t_lb = duration_lower_bound(requested)
-    else:
-        t_lb = _anomaly_start(requested)[0]
+    t_lb = _lower_bound(requested, clock)
     hopeless = valid & (t_lb > requested.bounds[1])
     problem = requested.sanitized(~hopeless)
     fixed = jax.lax.stop_gradient(_on_clock(clock)[0](problem, 0.0))   # a start: not
@@ -246,9 +245,12 @@ def min_time_setup(problem, grid, options: ALOptions, clock="hcw"):
         n = problem.orbit.mean_motion
         z0, lam0, nu0 = initial_guess(fixed, grid,
                                       jax.lax.stop_gradient(n * duration_lower_bound(problem)))
-    else:
-        _, flow, start, floor = _anomaly_start(jax.lax.stop_gradient(problem))
-        z0, lam0, nu0 = initial_guess(fixed, grid, floor, flow, start)
+    else:       # the Tschauner-Hempel system's minimum time, from n times the bang-bang time
+        start = jax.lax.stop_gradient(problem)
+        o = start.orbit
+        floor = anomaly_of_time(o, _lower_bound(start, clock)) - o.f0
+        z0, lam0, nu0 = initial_guess(fixed, grid, floor, tschauner_hempel_linear_flow(start),
+                                      o.mean_motion * rest_to_rest(start))
     rho0 = _first_convex_penalty(fixed.replace(sf=z0[-1]), grid, z0, lam0, nu0, options)
     return requested, problem, valid, hopeless, t_lb, (z0, lam0, nu0, rho0)
 
@@ -306,12 +308,20 @@ stalls alike). With 1e-8 both end SUCCESS after 9-10 outer iterations, stationar
 and 6e-10, t_f within 1.2e-12 of the stalled solve's (measured 2026-12-07)."""
 
 
-def _lgl_segments(grid) -> bool:
+def _scheme(grid):
+    """The collocation scheme of a `MeshLadder`, `SegmentedMesh`, `Mesh` or `Grid`; None for
+    anything else (such as None, the default ladder)."""
     if isinstance(grid, MeshLadder):
-        return grid.scheme == "LGL"
+        return grid.scheme
     if isinstance(grid, SegmentedMesh):
-        return grid.grid.scheme == "LGL"
-    return isinstance(grid, Mesh) and grid.segment.scheme == "LGL"
+        return grid.grid.scheme
+    if isinstance(grid, Mesh):
+        return grid.segment.scheme
+    return grid.scheme if isinstance(grid, Grid) else None
+
+
+def _lgl_segments(grid) -> bool:
+    return _scheme(grid) == "LGL" and not isinstance(grid, Grid)
 
 
 def default_options(method, grid):
@@ -423,8 +433,7 @@ def _default_grid(problem):
 
 def _condensed_takes(mesh) -> bool:
     """Method "condensed" is the default on segments it can eliminate (LGR, LG)."""
-    scheme = mesh.scheme if isinstance(mesh, MeshLadder) else mesh.grid.scheme
-    return scheme in CONDENSED_SCHEMES
+    return _scheme(mesh) in CONDENSED_SCHEMES
 
 
 def _default_method(problem, grid):
