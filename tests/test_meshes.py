@@ -100,8 +100,8 @@ def test_a_p_rung_raises_the_degree_and_keeps_the_breaks():
 def test_a_keep_out_zone_on_lg_meshes():
     """Path constraints on an LG mesh (the augmented Lagrangian over the dense Newton-KKT):
     tests/test_safety.py's fly-by past a 1.5 km keep-out sphere, refined on LG meshes, stays
-    outside it between the nodes to the tolerance (0.1 m) and costs more than the free
-    transfer."""
+    outside it between the nodes to the tolerance (0.1 m) and touches it: the constraint is
+    active, the path's closest approach within 1 m of the surface."""
     orbit = lpm.KeplerOrbit(a=7000e3, e=0.05, f0=0.4)
     free = lpm.EnergyOptimalTransfer(orbit, jnp.array([100.0, -2000.0, 50.0, 0.0, 0.0, 0.0]),
                                      jnp.array([0.0, 2000.0, 0.0, 0.0, 0.0, 0.0]),
@@ -112,8 +112,7 @@ def test_a_keep_out_zone_on_lg_meshes():
     assert isinstance(sol.grid, lpm.LGMesh) and sol.method == "augmented-lagrangian"
     t = np.linspace(0.0, float(sol.duration), 4001)
     reach = np.linalg.norm(np.asarray(sol.states(t))[:, :3], axis=1)
-    assert reach.min() > 1500.0 - lpm.DEFAULT_TOLERANCE.position
-    assert float(sol.cost) > float(lpm.solve(free).cost)
+    assert 1500.0 - lpm.DEFAULT_TOLERANCE.position < reach.min() < 1501.0
 
 
 def test_ladders_are_checked():

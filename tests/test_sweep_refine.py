@@ -2,9 +2,10 @@
 sweep's "refine" group solves every member of a chunk on the ladder's first rung and only the
 INACCURATE ones on the next (one compiled function per rung for the chunk's shape), ends each
 member where `refine_batch` ends it, counts the members still INACCURATE apart, resumes from
-disk, and runs sharded on two devices. A short ladder of small LGR meshes (2, 4, 8 segments of
+disk, and runs sharded on two devices. A short ladder of small LGR meshes (2 and 4 segments of
 8 points) keeps the Newton-KKT programs cheap to compile; with the default tolerance it spans
-members that stop on each rung and members still INACCURATE on the last."""
+members that stop on each rung and members still INACCURATE on the last (the long eccentric
+ones)."""
 
 import dataclasses
 import functools
@@ -25,7 +26,7 @@ from jaxlpm.cases import mei2010  # noqa: E402
 from jaxlpm.solvers.refine import MeshLadder  # noqa: E402
 from jaxlpm.status import Status  # noqa: E402
 
-LADDER = MeshLadder(((2, 8), (4, 8), (8, 8)))
+LADDER = MeshLadder(((2, 8), (4, 8)))
 REFINEMENT = Refinement(ladder=LADDER)
 # 6 members in chunks of 4: the second chunk has 2 members and 2 padding rows
 PARAMS = parameter_grid(e=[0.0, 0.3, 0.6], revolutions=[1.0, 3.0])
@@ -58,11 +59,11 @@ def test_each_member_ends_where_refine_batch_ends_it(refined):
     t = result.tables["refine"]
     np.testing.assert_array_equal(t["index"], np.arange(6))
     np.testing.assert_array_equal(t["rung"], batch["rung"])
-    np.testing.assert_array_equal(t["segments"], np.take([2, 4, 8], batch["rung"]))
+    np.testing.assert_array_equal(t["segments"], np.take([2, 4], batch["rung"]))
     np.testing.assert_array_equal(t["status"], batch["status"])
     np.testing.assert_allclose(t["cost"], batch["cost"], rtol=RTOL)
     # the ladder is exercised: members stop on more than one rung, and the last rung leaves
-    # some INACCURATE (the long eccentric ones need more than 8 x 8 points)
+    # some INACCURATE (the long eccentric ones need more than 4 x 8 points)
     assert len(set(t["rung"][t["status"] == Status.SUCCESS])) >= 2
     assert np.any(t["status"] == Status.INACCURATE)
     # a member stops on the first rung whose estimate meets the tolerance: below it, the
@@ -83,8 +84,9 @@ def test_inaccurate_members_are_counted_apart(refined):
     assert stats["max"] == pytest.approx(np.max(t["cost"][t["status"] == Status.SUCCESS]))
     m = manifest(out)
     assert m["definition"]["points"] == [9, "refine"]
-    assert m["definition"]["refinement"]["rungs"] == [[2, 8], [4, 8], [8, 8]]
+    assert m["definition"]["refinement"]["rungs"] == [[2, 8], [4, 8]]
     assert m["definition"]["refinement"]["method"] == "newton"
+    assert "scheme" not in m["definition"]["refinement"]      # LGR: as before it was recorded
     assert sorted(k for k in m["chunks"] if k.startswith("refined/")) == [
         "refined/chunk_00000", "refined/chunk_00001"]
     assert any(c["points"] == "refine" for c in m["compiles"])
@@ -100,7 +102,10 @@ def test_rerun_resumes_without_solving(refined, tmp_path):
     assert all(c["run"] == 0 for c in m["chunks"].values())
     for name, col in result.tables["refine"].items():
         np.testing.assert_array_equal(again.tables["refine"][name], col)
-    # another tolerance is another sweep
+    # another tolerance, or another scheme, is another sweep
+    with pytest.raises(ValueError, match="different sweep"):
+        sweep(family(), PARAMS, [9, "refine"], out, chunk_size=CHUNK, progress=False,
+              refinement=Refinement(ladder=MeshLadder(LADDER.rungs, scheme="LG")))
     with pytest.raises(ValueError, match="different sweep"):
         sweep(family(), PARAMS, [9, "refine"], out, chunk_size=CHUNK, progress=False,
               refinement=dataclasses.replace(REFINEMENT, tolerance=dataclasses.replace(
@@ -116,7 +121,7 @@ from jaxlpm.cases import mei2010
 from jaxlpm.solvers.refine import MeshLadder
 r = sweep(transfer_family("mei2010", mei2010.problem(), "kkt"),
           parameter_grid(e=[0.0, 0.3, 0.6], revolutions=[1.0, 3.0]), ["refine"], sys.argv[1],
-          chunk_size=4, refinement=Refinement(ladder=MeshLadder(((2, 8), (4, 8), (8, 8)))),
+          chunk_size=4, refinement=Refinement(ladder=MeshLadder(((2, 8), (4, 8)))),
           progress=False)
 print("devices", jax.device_count())
 """
@@ -169,7 +174,7 @@ def test_gradients_on_each_members_final_mesh():
     """Refinement(gradients=True) through the sweep: each member's implicit gradient of the
     cost, taken on its final mesh, is refine_batch's (the same programs per member: 1e-10)."""
     params = parameter_grid(e=[0.0, 0.3], revolutions=[1.0])
-    refinement = Refinement(ladder=MeshLadder(((2, 8), (4, 8))), gradients=True)
+    refinement = dataclasses.replace(REFINEMENT, gradients=True)
     t = sweep(family(), params, ["refine"], chunk_size=2, refinement=refinement,
               progress=False).tables["refine"]
     batch = refine_batch(jax.vmap(family().build)(params), ladder=refinement.ladder,

@@ -255,8 +255,13 @@ class _RefinedChunks:
         self.compiled, self.compile_s = {}, {}
 
     def settings(self) -> dict:
-        return dict(self.refinement.settings(), method=self.plan.method,
-                    rungs=[list(r) for r in self.plan.ladder.rungs])
+        """The refinement's part of the sweep's definition; the ladder's scheme where it is not
+        LGR (a sweep refined on LG or LGL meshes is another sweep; LGR ladders keep the
+        definition that sweeps written before the scheme was recorded resume from)."""
+        out = dict(self.refinement.settings(), method=self.plan.method,
+                   rungs=[list(r) for r in self.plan.ladder.rungs])
+        return out if self.plan.ladder.scheme == "LGR" else out | dict(
+            scheme=self.plan.ladder.scheme)
 
 
     def __call__(self, batch, members: int) -> dict:
