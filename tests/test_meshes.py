@@ -1,7 +1,11 @@
 """Multi-segment LG and LGL meshes (issue 19 items 3 and 5): the energy-optimal transfer on
 `lg_mesh` and `lgl_mesh` against `lgr_mesh`, mesh refinement on each scheme's ladder
-(`solve(problem, MeshLadder(..., scheme=...))`), the batch's refinement and a keep-out zone
-(path constraints) on LG meshes.
+(`solve(problem, MeshLadder(..., scheme=...))`) and a keep-out zone (path constraints) on LG
+meshes. The batch climbs a ladder of any scheme by the same code as LGR (the rung's mesh class
+read from the scheme): tests/test_refine_batch.py and tests/test_sweep_refine.py refine
+energy-optimal batches on LGR meshes, fuel-optimal ones on the family's LG segments,
+minimum-time ones on LGL segments, and tests/test_lg_segments.py minimum-time ones on LG
+segments.
 The costates at the segments' joins are checked against the analytic HCW costate in
 tests/test_newton.py, the operators in tests/test_accuracy.py.
 
@@ -72,17 +76,6 @@ def test_the_schemes_agree_on_the_optimum(refined):
     lam = {s: np.asarray(refined[s][1].costates(0.0)) for s in SCHEMES}
     for s in SCHEMES[1:]:
         np.testing.assert_allclose(lam[s], lam["LGR"], atol=1e-5 * np.abs(lam["LGR"]).max())
-
-
-def test_the_batch_refines_on_lg_meshes(refined):
-    """refine_batch on the same LG ladder ends each member where the single solve ends it
-    (the same meshes and Newton iterations: 1e-10)."""
-    _, fine, _ = refined["LG"]
-    two = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), problem())
-    out = refine_batch(two, ladder=lpm.MeshLadder(RUNGS, scheme="LG"))
-    np.testing.assert_array_equal(out["status"], [Status.SUCCESS] * 2)
-    np.testing.assert_array_equal(out["rung"], [int(fine.stats["rung"])] * 2)
-    np.testing.assert_allclose(out["cost"], float(fine.cost), rtol=1e-10)
 
 
 def test_a_p_rung_raises_the_degree_and_keeps_the_breaks():
