@@ -96,26 +96,34 @@ MASS = 100.0         # kg
 
 
 def release_dispersion(key, n):
-    """A user's dispersion of another family: minimum-time releases from rest at a circular
-    chief (500 km altitude) to a point 50 m ahead at rest, the thrust U[0.2, 1] N, the start
-    dispersed by 1 m and 1 mm/s (one sigma per axis) -- one batched MinimumTimeTransfer."""
-    orbit = lpm.KeplerOrbit(a=jnp.asarray(6878.137e3), e=jnp.asarray(0.0))
-
+    """A user's dispersion of another family: minimum-time releases from rest to a point 50 m
+    ahead at rest, the chief at 500 km perigee altitude, circular in the first sample and
+    e ~ U[0, 0.3] in the others, the thrust U[0.2, 1] N, the start dispersed by 1 m and
+    1 mm/s (one sigma per axis) -- one batched MinimumTimeTransfer."""
     def one(k):
-        k_thrust, k_r, k_v = jax.random.split(k, 3)
+        k_thrust, k_r, k_v, k_e = jax.random.split(k, 4)
+        e = jax.random.uniform(k_e, (), maxval=0.3)
+        orbit = lpm.KeplerOrbit(a=6878.137e3 / (1.0 - e), e=e)
         x0 = jnp.concatenate([jax.random.normal(k_r, (3,)), 1e-3 * jax.random.normal(k_v, (3,))])
         return lpm.MinimumTimeTransfer(orbit, x0, jnp.array([0.0, 50.0, 0.0, 0.0, 0.0, 0.0]),
                                        jax.random.uniform(k_thrust, (), minval=0.2, maxval=1.0),
                                        jnp.asarray(MASS))
 
-    return jax.vmap(one)(jax.random.split(key, n))
+    draw = jax.vmap(one)(jax.random.split(key, n))
+    circular = draw.orbit.replace(a=draw.orbit.a.at[0].set(6878.137e3),
+                                  e=draw.orbit.e.at[0].set(0.0))
+    return draw.replace(orbit=circular)
 
 
 def test_replan_monte_carlo_of_another_family():
     """`replan_monte_carlo` with a user's dispersion of minimum-time transfers (the default
     method, grids lg(8)): every sample SUCCESS, its parameters in the table, the record from
     its Solution (t_f, delta_v = (T / m) t_f at constant thrust, to the unit-direction
-    tolerance 1e-9). 4 samples, one compile (~10 s)."""
+    tolerance 1e-9). The traced batch is solved on the chief's true anomaly, so its eccentric
+    samples are solved (until 2026-12-08 a traced batch took the HCW clock and they were
+    INVALID_INPUT), and each sample's t_f is its single solve's to 1e-9 relative (the
+    solver's convergence; measured 4e-16): an eccentric one on the same clock, the circular
+    one on the HCW clock of a concrete HCW transfer. 4 samples, one compile (~10 s)."""
     key = jax.random.key(5)
     result = replan_monte_carlo(key, 4, release_dispersion, [8], grid=lpm.lg, chunk_size=4,
                                 progress=False)
@@ -130,6 +138,11 @@ def test_replan_monte_carlo_of_another_family():
                                rtol=1e-8)
     stats = result.statistics(columns=("duration",))[8]["duration"]
     assert stats["converged"] == 4 and stats["min"] > 0.0
+    assert np.all(t["problem.orbit.e"][1:] > 0.0)
+    for i in (0, 3):
+        one = jax.tree_util.tree_map(lambda x: x[i], drawn)
+        single = lpm.solve(one, lpm.lg(8))
+        np.testing.assert_allclose(t["duration"][i], float(single.duration), rtol=1e-9)
 
 
 def test_replan_monte_carlo_checks_the_draw():

@@ -377,14 +377,19 @@ def refine_transfer(problem, options, judge, ladder: MeshLadder | None = None):
 
 
 def hcw_clock(problem) -> bool:
-    """The problem is concretely HCW (the augmented-Lagrangian method's "hcw" clock); a traced
-    one counts as HCW when its model is "linear" (its eccentric members are then
-    INVALID_INPUT: a traced batch of eccentric chiefs on the linear model passes `run` the
-    "anomaly" clock, as `jaxlpm.batch.refine` does, or a `SegmentedMesh` of LGR or LG
-    segments, method "condensed")."""
-    if problem.model != "linear":
-        return False
-    return not is_concrete(problem.orbit.e) or bool(np.all(np.asarray(problem.orbit.e) == 0.0))
+    """The problem is concretely HCW (model "linear", e = 0 for every member): the augmented
+    Lagrangian's "hcw" clock, s = n t. Any other problem takes the "anomaly" clock, a traced
+    one on the linear model too, whatever its members' eccentricities (a sweep or Monte Carlo
+    batch: the chief's true anomaly is the clock of every e, HCW's included)."""
+    return (problem.model == "linear" and is_concrete(problem.orbit.e)
+            and bool(np.all(np.asarray(problem.orbit.e) == 0.0)))
+
+
+def _linear_first(problem) -> bool:
+    """The augmented Lagrangian on one LG grid is the default (grid and refinement): the
+    linear model, concretely circular or traced (where "condensed" is the default on segments
+    and for every other problem)."""
+    return problem.model == "linear" and (not is_concrete(problem.orbit.e) or hcw_clock(problem))
 
 
 def run(problem, grid, method, options, clock=None) -> Solution:
@@ -410,7 +415,9 @@ def run(problem, grid, method, options, clock=None) -> Solution:
     5 orbits of a 0.01 N transfer in the tests, 16 do not).
 
     clock: the augmented Lagrangian's, "hcw" or "anomaly" (`_on_clock`), where the caller
-    knows it of a traced batch (`jaxlpm.batch.refine`); None: "hcw" where `hcw_clock`.
+    knows it of a traced batch (`jaxlpm.batch.refine`: "hcw" where every member is circular);
+    None: "hcw" where `hcw_clock` (concretely HCW), else "anomaly" (traced linear members
+    too, so a sweep or Monte Carlo batch of eccentric chiefs is solved, not INVALID_INPUT).
 
     Method "condensed" (every model and eccentricity), on a `SegmentedMesh` of LGR or LG
     segments: `jaxlpm.solvers.min_time_condensed.run`."""
@@ -428,7 +435,8 @@ def run(problem, grid, method, options, clock=None) -> Solution:
 
 
 def _default_grid(problem):
-    return lg(DEFAULT_POINTS) if hcw_clock(problem) else min_time_condensed.default_grid(problem)
+    return (lg(DEFAULT_POINTS) if _linear_first(problem)
+            else min_time_condensed.default_grid(problem))
 
 
 def _condensed_takes(mesh) -> bool:
@@ -445,7 +453,7 @@ def _default_method(problem, grid):
 def refine_method(problem, ladder):
     """The method refinement climbs `ladder` (None: the default ladder) with: the augmented
     Lagrangian on HCW and on LGL ladders, else "condensed"."""
-    if hcw_clock(problem) or (ladder is not None and not _condensed_takes(ladder)):
+    if _linear_first(problem) or (ladder is not None and not _condensed_takes(ladder)):
         return "augmented-lagrangian"
     return "condensed"
 
