@@ -260,8 +260,9 @@ class _RefinedChunks:
         definition that sweeps written before the scheme was recorded resume from)."""
         out = dict(self.refinement.settings(), method=self.plan.method,
                    rungs=[list(r) for r in self.plan.ladder.rungs])
-        return out if self.plan.ladder.scheme == "LGR" else out | dict(
-            scheme=self.plan.ladder.scheme)
+        if self.plan.ladder.scheme != "LGR":
+            out["scheme"] = self.plan.ladder.scheme
+        return out
 
 
     def __call__(self, batch, members: int) -> dict:

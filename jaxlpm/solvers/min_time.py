@@ -386,9 +386,10 @@ def hcw_clock(problem) -> bool:
 
 
 def _linear_first(problem) -> bool:
-    """The augmented Lagrangian on one LG grid is the default (grid and refinement): the
-    linear model, concretely circular or traced (where "condensed" is the default on segments
-    and for every other problem)."""
+    """Whether the default grid is one LG grid and refinement climbs by the augmented
+    Lagrangian: concretely HCW transfers, and traced ones on the linear model (their
+    eccentricity is not known on the host). Every other problem defaults to method
+    "condensed" on segments."""
     return problem.model == "linear" and (not is_concrete(problem.orbit.e) or hcw_clock(problem))
 
 
